@@ -1,0 +1,67 @@
+// palletd detection: frame in, layout out. A pure function: no threads, files or logging inside;
+// everything it decides is in its result.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "palletd/frame.hpp"
+#include "palletd/geometry.hpp"
+#include "palletd/layer.hpp"
+#include "palletd/layout.hpp"
+
+namespace palletd {
+
+/// Order in which boxes are reported to the robot (pick index 0 first).
+enum class PickOrder {
+  far_corner_first,  ///< from the corner furthest from the robot base (or camera) inwards
+  row_major,         ///< by base-frame x, then y
+  nearest_first,     ///< nearest to the robot base (or camera) first
+};
+
+struct DetectionParams {
+  PlaneParams plane;
+  LayerParams layer;
+  ContourParams contour;
+  LayoutParams layout;
+  PickOrder pick_order = PickOrder::far_corner_first;
+};
+
+/// One detected box, camera frame [m], conventions of shared/spec/detections.md.
+struct DetectedBox {
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();     ///< centroid of the top face
+  Eigen::Vector3d long_axis = Eigen::Vector3d::UnitX(); ///< unit, along the long side
+  Eigen::Vector3d normal = -Eigen::Vector3d::UnitZ();   ///< unit, toward the camera
+  double long_m = 0.0, short_m = 0.0;                   ///< size of the top face [m]
+  int format = 0;        ///< index into the recipe's formats
+  double score = 0.0;    ///< 0..1
+  int pick_index = 0;
+  Box2d in_layer;        ///< the same box in the layer frame
+  std::optional<Eigen::Vector3d> base_position;  ///< [m] when T_base_camera is known
+  std::optional<double> base_yaw_deg;            ///< [deg] (-180, 180]
+};
+
+struct Detection {
+  DetectionStatus status = DetectionStatus::bad_frame;
+  std::string message;
+  std::map<std::string, double> timing_ms;  ///< "total" plus per stage
+  Plane plane_camera;
+  double layer_area_m2 = 0.0;
+  double coverage = 0.0;
+  bool ambiguous = false;
+  bool budget_exhausted = false;
+  bool clipped_by_image_border = false;
+  std::vector<DetectedBox> boxes;
+  LayerResult layer;  ///< the first half's result, for overlays and diagnostics
+};
+
+/// Runs the whole pipeline on one frame with the given box formats.
+/// `rays` may be empty; a matching table is then built (pass one in to reuse it frame after frame).
+Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats,
+                 const DetectionParams& params, RayTable* rays = nullptr);
+
+}  // namespace palletd

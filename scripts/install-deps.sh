@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages palletd needs to build, test and run its demo.
+# Idempotent: quiet and fast (no apt-get update) when everything is already present.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git
+  # libraries
+  libpcl-dev libcgal-dev libopencv-dev libeigen3-dev
+  libaravis-dev aravis-tools libopenni2-dev
+  libmodbus-dev libspdlog-dev libyaml-cpp-dev libsystemd-dev
+  nlohmann-json3-dev libcli11-dev libcpp-httplib-dev
+  catch2
+  # test peers and tools: python Modbus client, systemd-analyze, network namespaces
+  python3 python3-pymodbus systemd iproute2 util-linux
+)
+if [[ "${1:-}" == "--print" ]]; then printf '%s\n' "${packages[@]}"; exit 0; fi
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+[[ ${#missing[@]} -eq 0 ]] && exit 0
+
+sudo=""
+if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
+echo "install-deps: installing ${#missing[@]} package(s): ${missing[*]}" >&2
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
