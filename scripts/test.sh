@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Builds palletd and runs the whole test suite. Installs what it needs on a Debian 12 machine.
+#   scripts/test.sh                 # RelWithDebInfo build in build/
+#   BUILD_DIR=build-asan CMAKE_ARGS="-DPALLETD_SANITIZE_ADDRESS=ON" scripts/test.sh
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$here"
+
+"$here/scripts/install-deps.sh"
+
+build_dir=${BUILD_DIR:-build}
+jobs=${JOBS:-$(nproc)}
+extra_args=()
+if [[ -n "${CMAKE_ARGS:-}" ]]; then read -r -a extra_args <<<"$CMAKE_ARGS"; fi
+if [[ "${CI:-}" == "true" ]]; then extra_args+=(-DPALLETD_WERROR=ON); fi
+
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${extra_args[@]}" >/dev/null
+cmake --build "$build_dir" -j "$jobs"
+ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-}
