@@ -14,6 +14,9 @@ packages=(
   catch2
   # test peers and tools: python Modbus client, systemd-analyze, network namespaces
   python3 python3-pymodbus systemd iproute2 util-linux
+  python3-serial-asyncio  # pymodbus 3.0 imports it even for TCP clients
+  mbpoll  # the Modbus commands in docs/register-map.md
+  chromium  # headless browser test of the status page (tests/web)
 )
 if [[ "${1:-}" == "--print" ]]; then printf '%s\n' "${packages[@]}"; exit 0; fi
 

@@ -118,9 +118,20 @@ class ConfigError : public std::runtime_error {
 };
 
 /// Loads and validates a configuration file. Throws ConfigError (start-up only).
+/// Relative paths in the file (camera.replay.directory, recording.directory) are resolved against
+/// the file's folder.
 Config load_config(const std::string& path);
-/// The same from YAML text; `name` is used in error messages.
-Config parse_config(const std::string& yaml_text, const std::string& name);
+/// The same from YAML text; `name` is used in error messages. Relative paths are resolved against
+/// `base_directory`, or left as written when it is empty.
+Config parse_config(const std::string& yaml_text, const std::string& name,
+                    const std::string& base_directory = "");
+
+/// Key paths ("modbus.port", "formats", ...) whose values differ between two configurations
+/// (source_path is not compared). Empty when they are equal.
+std::vector<std::string> config_differences(const Config& a, const Config& b);
+/// Every key path the configuration file accepts, in file order ("camera.driver", ...).
+/// `formats`, `recipes`, `camera_to_base` and `camera.intrinsics` are listed as one key each.
+std::vector<std::string> config_key_paths();
 
 /// The exit code of `--check-config` on a bad file (sysexits EX_CONFIG).
 inline constexpr int kExitConfigError = 78;

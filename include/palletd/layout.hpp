@@ -1,10 +1,34 @@
 // palletd detection, second half (paper Section IV): box layout search, seam evidence,
 // refinement. Values in, values out.
+//
+// Entry points, in pipeline order:
+//   SeamEvidence seams = build_seam_evidence(frame, cloud, layer);          // evidence inside the layer
+//   LayoutResult found = find_layout(layer.polygons, formats, params, &seams);  // search
+//   LayoutResult final = refine_layout(found, layer, &seams, params);        // millimetre fit
+// or all three at once: solve_layout(frame, cloud, layer, formats, params).
+//
+// Product search (SearchMode::product, the default). Per component and per layout orientation
+// (taken mod 90 deg from the outline's orthogonal corners), the component is turned so that the
+// layout is axis-aligned. Candidate box-edge lines are the outline's axis-aligned edges closed
+// under +/- every box side (merged within a tolerance); the lines cut the component into grid
+// cells whose exact area inside the outline is clipped once, so Area(B ∩ C) of any box is an
+// O(1) summed-area lookup. Boxes are placed by bottom-left canonical filling: the lowest-leftmost
+// undecided cell is either the bottom-left cell of a new box or left uncovered; every layout is
+// generated exactly once (a tree, so no duplicate hypotheses), and the search is best-first on
+// the admissible bound score + undecided area. Seam evidence enters the score as a non-negative
+// penalty (seams crossing box interiors), so the bound stays admissible.
+//
+// Paper mode (SearchMode::paper): Algorithms 1-3 as published (breadth-first queue, every
+// orthogonal corner, four stacking ways), capped by paper_max_hypotheses and the time budget.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
+#include "palletd/frame.hpp"
 #include "palletd/geometry.hpp"
 #include "palletd/layer.hpp"
 
@@ -12,24 +36,105 @@ namespace palletd {
 
 enum class SearchMode { product, paper };
 
+/// How the product search evaluates Area(box ∩ layer) for its placement table. grid_sat is the
+/// default, chosen by measurement (tests/bench/layout): exact and the fastest; raster is
+/// approximate (it can break exact ties, so ambiguity is under-reported); clip is exact and slower.
+enum class AreaMethod {
+  grid_sat,  ///< exact: cells between candidate lines clipped once, summed-area table over cells
+  raster,    ///< layer rasterised in the layout frame (area_raster_cell_m), summed-area table
+  clip,      ///< exact clipping of the polygon with holes against each rectangle, every query
+};
+
 struct LayoutParams {
   SearchMode search = SearchMode::product;
   double a_min_fraction = 0.9;   ///< a box is on the layer when Area(B ∩ C) > a_min_fraction * Area(B)
   double a_max_fraction = 0.1;   ///< and overlaps the hypothesis by less than a_max_fraction * Area(B)
-  double time_budget_ms = 50.0;  ///< search budget per frame [ms]; the best so far is returned past it
-  double ambiguity_margin = 0.01;  ///< relative score gap under which two layouts count as tied
+  /// Search budget per call [ms], shared among the components; past it the best so far is
+  /// returned with budget_exhausted (paper mode: also when paper_max_hypotheses is reached).
+  double time_budget_ms = 50.0;
+  /// Two materially different layouts whose scores differ by less than this share of the
+  /// smallest box area are tied (-> ambiguous).
+  double ambiguity_margin = 0.02;
+  double corner_angle_tol_deg = 10.0;  ///< an outline corner is orthogonal within this [deg]
+  double line_merge_tol_m = 0.0;       ///< candidate lines closer than this merge [m]; 0 = auto
+  /// Score of a box = Area(B ∩ C) - seam_weight * (seam mass inside its interior
+  ///   + missing_seam_weight * length of its edges with a neighbour but no seam * seam cell).
+  /// Both terms are >= 0, so score + undecided area stays an admissible bound.
+  double seam_weight = 4.0;
+  double missing_seam_weight = 1.0;
+  double seam_margin_m = 0.012;        ///< box interior = box shrunk by this before seam lookup [m]
+  std::size_t max_nodes = 400000;      ///< product search node cap
+  std::size_t paper_max_hypotheses = 200000;  ///< paper mode cap on queued hypotheses
+  AreaMethod area_method = AreaMethod::grid_sat;
+  double area_raster_cell_m = 0.003;   ///< cell of AreaMethod::raster [m]
+  /// Below this covered share of a component, its boxes match no recipe format (no_layout).
+  double min_coverage = 0.8;
+  bool refine = true;                  ///< solve_layout: run refine_layout
+  double refine_size_tolerance_m = 0.010;  ///< refined sizes stay within nominal +/- this [m]
 };
+
+/// Seam evidence: a raster in the layer frame of how much each spot looks like a gap between
+/// boxes (0 = flat box top, 1 = seam: depth below the plane, no measurement, intensity edge).
+struct SeamEvidence {
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< layer-frame corner of cell (0, 0) [m]
+  double cell_m = 0.003;                               ///< cell size [m]
+  int width = 0;                                       ///< cells along layer x
+  int height = 0;                                      ///< cells along layer y
+  std::vector<float> seam;                             ///< row-major (row = y), 0..1
+  double strength = 0.0;  ///< share of layer cells that look like seams (> 0.5); 0 = no evidence
+
+  [[nodiscard]] bool empty() const { return width <= 0 || height <= 0 || seam.empty(); }
+  [[nodiscard]] float at(int ix, int iy) const {
+    return seam[static_cast<std::size_t>(iy) * static_cast<std::size_t>(width) +
+                static_cast<std::size_t>(ix)];
+  }
+};
+
+struct SeamParams {
+  double cell_m = 0.0;            ///< raster cell [m]; 0 = the pixel pitch on the layer
+  double depth_step_m = 0.004;    ///< deeper than the plane by more than this = seam [m]
+  double intensity_weight = 0.8;  ///< weight of the intensity gradient (0 = ignore intensity)
+};
+
+/// Builds the seam raster from the frame (depth, optional intensity), its organized cloud and
+/// the layer found by the first half. Empty when the layer status is not ok.
+SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud,
+                                 const LayerResult& layer, const SeamParams& params = {});
 
 /// Result of the layout search for all components of a layer.
 struct LayoutResult {
   DetectionStatus status = DetectionStatus::no_layout;
-  std::string reason;
+  std::string reason;                ///< a sentence when status != ok
   std::vector<Box2d> boxes;          ///< layer frame
   std::vector<double> box_scores;    ///< 0..1 per box
-  bool ambiguous = false;
-  bool budget_exhausted = false;
+  std::vector<int> box_component;    ///< index of the component each box lies on
+  bool ambiguous = false;            ///< another layout scores (nearly) the same
+  bool budget_exhausted = false;     ///< time budget or node cap reached: best so far returned
   double coverage = 0.0;             ///< covered share of the layer area
+  double score = 0.0;                ///< sum over components of the search score [m^2]
+  double runner_up_gap = -1.0;       ///< score gap to the best different layout [m^2]; -1 = none
+  std::vector<Box2d> runner_up;      ///< that layout (diagnostics), empty if none
   std::size_t hypotheses_visited = 0;
+  double search_ms = 0.0;
 };
+
+/// Finds the box layout of each component. `seams` may be null (outline only).
+LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
+                         const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                         const SeamEvidence* seams);
+
+/// Fits the found boxes to the measured outline (layer points) and to seam lines so that
+/// positions reach millimetres; sizes stay at the nominal format within
+/// refine_size_tolerance_m. Recomputes per-box scores. `seams` may be null.
+LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
+                           const std::vector<BoxFormat>& formats, const SeamEvidence* seams,
+                           const LayoutParams& params);
+
+/// build_seam_evidence + find_layout + refine_layout.
+LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                          const std::vector<BoxFormat>& formats, const LayoutParams& params);
+
+/// Area of the intersection of a polygon with holes and an axis-aligned rectangle [m^2] (exact).
+double clipped_area(const PolygonWithHoles& polygon, double x0, double y0, double x1, double y1);
 
 }  // namespace palletd

@@ -1,5 +1,13 @@
-// detect(): the named stages of the pipeline, composed. Filled in when the stages land.
+// detect(): the named stages of the pipeline, composed. Pure: values in, values out.
 #include "palletd/detection.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "poses.hpp"
 
 namespace palletd {
 
@@ -12,6 +20,90 @@ const char* to_string(DetectionStatus status) {
     case DetectionStatus::bad_frame: return "bad_frame";
   }
   return "bad_frame";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// A frame detect() can work on, or the reason it cannot.
+std::string frame_problem(const Frame& frame) {
+  const Intrinsics& in = frame.intrinsics;
+  if (in.width <= 0 || in.height <= 0) return "frame has no size";
+  if (!(in.fx > 0.0) || !(in.fy > 0.0) || !std::isfinite(in.fx) || !std::isfinite(in.fy))
+    return "focal length must be positive";
+  if (!std::isfinite(in.cx) || !std::isfinite(in.cy)) return "principal point is not finite";
+  if (frame.depth.size() != frame.pixel_count())
+    return "depth has " + std::to_string(frame.depth.size()) + " pixels, expected " +
+           std::to_string(frame.pixel_count());
+  if (!(frame.depth_scale_m > 0.0) || !std::isfinite(frame.depth_scale_m)) return "depth_scale must be positive";
+  return {};
+}
+
+std::string formats_problem(const std::vector<BoxFormat>& formats) {
+  if (formats.empty()) return "no box format given";
+  for (std::size_t i = 0; i < formats.size(); ++i) {
+    const BoxFormat& f = formats[i];
+    if (!(f.long_m > 0.0) || !(f.short_m > 0.0) || !std::isfinite(f.long_m) || !std::isfinite(f.short_m))
+      return "box format " + std::to_string(i) + " has a non-positive size";
+  }
+  return {};
+}
+
+}  // namespace
+
+Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, const DetectionParams& params,
+                 RayTable* rays) {
+  const auto t_start = Clock::now();
+  Detection out;
+  auto finish = [&](DetectionStatus status, std::string message) {
+    out.status = status;
+    out.message = std::move(message);
+    out.timing_ms["total"] = ms_since(t_start);
+    return out;
+  };
+  if (std::string problem = frame_problem(frame); !problem.empty()) return finish(DetectionStatus::bad_frame, problem);
+  if (std::string problem = formats_problem(formats); !problem.empty())
+    return finish(DetectionStatus::no_layout, problem);
+
+  // Stage 0: organized cloud (the ray table is reused frame after frame when the caller keeps it).
+  auto t0 = Clock::now();
+  RayTable local_rays;
+  RayTable* table = rays != nullptr ? rays : &local_rays;
+  if (!table->matches(frame.intrinsics)) *table = RayTable(frame.intrinsics);
+  OrganizedCloud cloud;
+  to_organized_cloud(frame, *table, cloud);
+  out.timing_ms["cloud"] = ms_since(t0);
+
+  // Stages 1-5: plane, layer, components, crust contour.
+  double smallest_box_m2 = std::numeric_limits<double>::max();
+  for (const auto& f : formats) smallest_box_m2 = std::min(smallest_box_m2, f.long_m * f.short_m);
+  out.layer = extract_layer(frame, cloud, params.plane, params.layer, params.contour,
+                            params.layer.min_component_box_fraction * smallest_box_m2);
+  const LayerDiagnostics& diag = out.layer.diagnostics;
+  out.timing_ms["plane"] = diag.t_plane_ms;
+  out.timing_ms["layer"] = diag.t_layer_ms;
+  out.timing_ms["contour"] = diag.t_contour_ms;
+  out.plane_camera = out.layer.plane_camera;
+  out.clipped_by_image_border = diag.touches_image_border;
+  for (const auto& polygon : out.layer.polygons) out.layer_area_m2 += area(polygon);
+  if (out.layer.status != DetectionStatus::ok) return finish(out.layer.status, out.layer.reason);
+
+  // Stages 6-7: layout search with seam evidence, refinement.
+  t0 = Clock::now();
+  const LayoutResult layout = solve_layout(frame, cloud, out.layer, formats, params.layout);
+  out.timing_ms["layout"] = ms_since(t0);
+  out.ambiguous = layout.ambiguous;
+  out.budget_exhausted = layout.budget_exhausted;
+  out.coverage = layout.coverage;
+  if (layout.status != DetectionStatus::ok) return finish(layout.status, layout.reason);
+
+  // Stage 8: poses in the camera and base frames, pick order.
+  out.boxes = to_detected_boxes(layout.boxes, layout.box_scores, out.layer.T_camera_layer, frame.T_base_camera,
+                                params.pick_order);
+  return finish(DetectionStatus::ok, "");
 }
 
 }  // namespace palletd

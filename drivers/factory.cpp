@@ -1,0 +1,49 @@
+// make_camera(): the one place that maps CameraConfig onto a driver.
+#include <stdexcept>
+
+#include "aravis/aravis_camera.hpp"
+#include "palletd/camera.hpp"
+#include "palletd/config.hpp"
+#include "replay/replay_camera.hpp"
+
+namespace palletd {
+
+std::unique_ptr<Camera> make_camera(const CameraConfig& config) {
+  if (config.driver == "replay") {
+    if (config.replay.directory.empty()) {
+      throw std::invalid_argument("camera.replay.directory: the replay driver needs a folder of frames");
+    }
+    ReplayOptions o;
+    o.directory = config.replay.directory;
+    o.loop = config.replay.loop;
+    o.rate_hz = config.replay.rate_hz;
+    o.intrinsics_override = config.intrinsics_override;
+    return std::make_unique<ReplayCamera>(std::move(o));
+  }
+  if (config.driver == "aravis") {
+    const AravisCameraConfig& a = config.aravis;
+    if (a.pixel_format != "Coord3D_C16" && a.pixel_format != "Coord3D_ABC32f" && a.pixel_format != "Mono16") {
+      throw std::invalid_argument("camera.aravis.pixel_format: '" + a.pixel_format +
+                                  "' (expected Coord3D_C16, Coord3D_ABC32f or Mono16)");
+    }
+    AravisOptions o;
+    o.address = a.address;
+    o.serial = a.serial;
+    o.user_id = a.user_id;
+    o.pixel_format = a.pixel_format;
+    o.mono16_scale_m = a.mono16_scale_m;
+    o.packet_size = a.packet_size;
+    o.packet_resend = a.packet_resend;
+    o.buffer_count = a.buffer_count;
+    o.software_trigger = a.software_trigger;
+    o.intrinsics_override = config.intrinsics_override;
+    return std::make_unique<AravisCamera>(std::move(o));
+  }
+  if (config.driver == "openni2") {
+    throw std::invalid_argument("camera.driver: openni2 is not available in this build (see docs/cameras.md)");
+  }
+  throw std::invalid_argument("camera.driver: unknown driver '" + config.driver +
+                              "' (expected replay, aravis or openni2)");
+}
+
+}  // namespace palletd

@@ -1,0 +1,201 @@
+// palletd modbus: the register map of interface version 1 (docs/register-map.md) as pure
+// encode/decode functions. This is the only place that scales metres to 0.1 mm, degrees to
+// 0.01 degree and 0..1 scores to 0..1000. No I/O, no threads; every function is reentrant.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace palletd::modbus {
+
+// ---- addresses (0-based protocol addresses; holding register N is 4xxxx register N + 1) ----
+inline constexpr std::uint16_t kControlStart = 0;
+inline constexpr std::uint16_t kControlCount = 16;   ///< 0..15, written by the PLC
+inline constexpr std::uint16_t kStatusStart = 100;
+inline constexpr std::uint16_t kStatusCount = 18;    ///< 100..117, read-only
+inline constexpr std::uint16_t kResultStart = 200;
+inline constexpr std::uint16_t kResultHeaderCount = 10;  ///< 200..209
+inline constexpr std::uint16_t kBoxStart = 210;
+inline constexpr std::uint16_t kBoxStride = 10;
+inline constexpr std::uint16_t kMaxBoxes = 32;
+inline constexpr std::uint16_t kResultIdCopy = 530;  ///< copy of register 200
+inline constexpr std::uint16_t kResultCount = kResultIdCopy - kResultStart + 1;  ///< 200..530
+inline constexpr std::uint16_t kRegisterCount = kResultIdCopy + 1;              ///< 0..530
+inline constexpr std::uint16_t kInterfaceVersion = 1;
+inline constexpr std::uint32_t kTestPattern = 0x12345678u;
+
+// control block
+inline constexpr std::uint16_t kRegControlWord = 0;
+inline constexpr std::uint16_t kRegRecipe = 1;
+inline constexpr std::uint16_t kRegRequestId = 2;
+inline constexpr std::uint16_t kRegPlcHeartbeat = 3;
+// status block
+inline constexpr std::uint16_t kRegStatusWord = 100;
+inline constexpr std::uint16_t kRegErrorCode = 101;
+inline constexpr std::uint16_t kRegErrorDetail = 102;
+inline constexpr std::uint16_t kRegHeartbeat = 103;
+inline constexpr std::uint16_t kRegActiveRecipe = 104;
+inline constexpr std::uint16_t kRegAcquisitionId = 105;
+inline constexpr std::uint16_t kRegStatusResultId = 106;
+inline constexpr std::uint16_t kRegLastRequestId = 107;
+inline constexpr std::uint16_t kRegInterfaceVersion = 108;
+inline constexpr std::uint16_t kRegFormatFlags = 109;
+inline constexpr std::uint16_t kRegTestPattern = 110;  ///< 110-111
+inline constexpr std::uint16_t kRegMissedTriggers = 112;
+inline constexpr std::uint16_t kRegProcessingMs = 113;
+inline constexpr std::uint16_t kRegLatencyMs = 114;
+inline constexpr std::uint16_t kRegFramesGrabbed = 115;  ///< 115-116
+inline constexpr std::uint16_t kRegCameraReconnects = 117;
+// result block
+inline constexpr std::uint16_t kRegResultId = 200;
+inline constexpr std::uint16_t kRegResultRequestId = 201;
+inline constexpr std::uint16_t kRegResultStatus = 202;
+inline constexpr std::uint16_t kRegBoxesFound = 203;
+inline constexpr std::uint16_t kRegBoxesReported = 204;
+inline constexpr std::uint16_t kRegRecipeUsed = 205;
+inline constexpr std::uint16_t kRegResultFlags = 206;
+inline constexpr std::uint16_t kRegLayerZ = 207;  ///< 207-208
+inline constexpr std::uint16_t kRegCoverage = 209;
+
+// control word bits (register 0)
+inline constexpr std::uint16_t kCtlTrigger = 1u << 0;
+inline constexpr std::uint16_t kCtlResultAck = 1u << 1;
+inline constexpr std::uint16_t kCtlClearError = 1u << 2;
+inline constexpr std::uint16_t kCtlSaveSnapshot = 1u << 3;
+// status word bits (register 100)
+inline constexpr std::uint16_t kStReady = 1u << 0;
+inline constexpr std::uint16_t kStBusy = 1u << 1;
+inline constexpr std::uint16_t kStTriggerAck = 1u << 2;
+inline constexpr std::uint16_t kStResultReady = 1u << 3;
+inline constexpr std::uint16_t kStError = 1u << 4;
+inline constexpr std::uint16_t kStMissedTrigger = 1u << 5;
+inline constexpr std::uint16_t kStCameraOk = 1u << 6;
+inline constexpr std::uint16_t kStHeartbeatToggle = 1u << 7;
+inline constexpr std::uint16_t kStResultOverrun = 1u << 8;
+// format flags (register 109)
+inline constexpr std::uint16_t kFmtLowWordFirst = 1u << 0;
+inline constexpr std::uint16_t kFmtCameraFrame = 1u << 1;
+// result flags (register 206)
+inline constexpr std::uint16_t kResAmbiguous = 1u << 0;
+inline constexpr std::uint16_t kResBudgetExhausted = 1u << 1;
+inline constexpr std::uint16_t kResLayerClipped = 1u << 2;
+
+/// Error codes in register 101 (the detail in 102 depends on the code).
+enum class ErrorCode : std::uint16_t {
+  kNone = 0,
+  kFrameTimeout = 1,        ///< no frame captured after the trigger within the frame timeout
+  kDetectionTimeout = 2,    ///< detection took longer than the detection timeout
+  kDetectionFailed = 3,     ///< detail: DetectionFailure
+  kCameraDisconnected = 4,  ///< detail: reconnect attempts so far (saturated at 65535)
+  kUnknownRecipe = 5,       ///< detail: the recipe number asked for
+  kPlcHeartbeatLost = 6,    ///< register 3 did not change within the configured timeout
+  kInternal = 7,            ///< anything else; see the log
+};
+
+/// Detail codes (register 102) for ErrorCode::kDetectionFailed.
+enum class DetectionFailure : std::uint16_t {
+  kUnknown = 0,
+  kNoPlane = 1,
+  kNoLayer = 2,
+  kNoLayout = 3,
+  kBadFrame = 4,
+};
+
+/// Result status in register 202.
+enum class ResultStatus : std::uint16_t { kOk = 0, kNoBoxes = 1, kFailed = 2 };
+
+enum class WordOrder : std::uint8_t { kHighWordFirst, kLowWordFirst };
+
+/// The whole addressable register space 0..530 (control, status and result blocks; the gaps
+/// 16..99 and 118..199 read 0).
+using RegisterImage = std::array<std::uint16_t, kRegisterCount>;
+
+/// One box as the service computed it, in engineering units.
+struct BoxRecord {
+  double x_m = 0.0, y_m = 0.0, z_m = 0.0;  ///< box top centre [m] (base frame, else camera)
+  double yaw_deg = 0.0;                    ///< long-axis angle about z [deg]; wrapped to -180..180
+  std::uint16_t format = 0;                ///< index of the format in the recipe
+  double score = 0.0;                      ///< 0..1
+  std::uint16_t pick_index = 0;            ///< position in the pick order, 1 = pick first
+};
+
+/// One finished detection as the service reports it. Box order is the service's; only the first
+/// kMaxBoxes are encoded.
+struct ResultRecord {
+  std::uint16_t request_id = 0;  ///< request id latched with the trigger this answers
+  std::uint16_t recipe = 0;      ///< recipe used
+  ResultStatus status = ResultStatus::kOk;
+  ErrorCode error = ErrorCode::kNone;  ///< for kFailed: why (goes to 101/102)
+  std::uint16_t error_detail = 0;
+  std::uint16_t boxes_found = 0;  ///< may exceed boxes.size() if the service truncated
+  std::vector<BoxRecord> boxes;
+  bool ambiguous = false;
+  bool budget_exhausted = false;
+  bool layer_clipped = false;
+  double layer_z_m = 0.0;       ///< layer height [m]
+  double coverage = 0.0;        ///< 0..1
+  double processing_ms = 0.0;   ///< detection wall time [ms] (register 113)
+};
+
+/// The status block's content in engineering units (what register 100..117 show).
+struct StatusRecord {
+  std::uint16_t status_word = 0;  ///< kSt* bits
+  ErrorCode error = ErrorCode::kNone;
+  std::uint16_t error_detail = 0;
+  std::uint16_t heartbeat = 0;
+  std::uint16_t active_recipe = 0;
+  std::uint16_t acquisition_id = 0;
+  std::uint16_t result_id = 0;
+  std::uint16_t last_request_id = 0;
+  bool poses_in_camera_frame = false;
+  std::uint16_t missed_triggers = 0;
+  double processing_ms = 0.0;
+  double latency_ms = 0.0;
+  std::uint32_t frames_grabbed = 0;
+  std::uint16_t camera_reconnects = 0;
+};
+
+/// The PLC's control block decoded.
+struct ControlRecord {
+  std::uint16_t control_word = 0;
+  std::uint16_t recipe = 0;
+  std::uint16_t request_id = 0;
+  std::uint16_t plc_heartbeat = 0;
+};
+
+// ---- scalar conversions (saturating; non-finite values encode as 0) ----
+std::int32_t metres_to_tenth_mm(double metres);
+double tenth_mm_to_metres(std::int32_t value);
+std::int16_t degrees_to_hundredths(double degrees);  ///< wraps to -180..180 first
+double hundredths_to_degrees(std::int16_t value);
+std::uint16_t unit_to_permille(double value);  ///< 0..1 -> 0..1000
+std::uint16_t milliseconds_to_register(double ms);  ///< rounded, saturated at 65535
+
+// ---- 32-bit values over two registers ----
+void put_u32(std::uint16_t* dst, std::uint32_t value, WordOrder order);
+std::uint32_t get_u32(const std::uint16_t* src, WordOrder order);
+void put_i32(std::uint16_t* dst, std::int32_t value, WordOrder order);
+std::int32_t get_i32(const std::uint16_t* src, WordOrder order);
+
+// ---- blocks ----
+/// Writes registers 100..117.
+void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& image);
+/// Writes registers 200..530 with `result_id` in 200 and 530; unused box slots are zeroed.
+void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
+                   RegisterImage& image);
+/// Clears registers 200..530 (no result yet).
+void clear_result(RegisterImage& image);
+
+ControlRecord decode_control(const RegisterImage& image);
+
+/// A result block read back (what a PLC sees), values converted to engineering units.
+struct DecodedResult {
+  std::uint16_t result_id = 0;
+  std::uint16_t result_id_copy = 0;  ///< register 530; differs from result_id on a torn read
+  ResultRecord record;               ///< error/error_detail/processing_ms are not in this block
+};
+DecodedResult decode_result(const RegisterImage& image, WordOrder order);
+StatusRecord decode_status(const RegisterImage& image, WordOrder order);
+
+}  // namespace palletd::modbus

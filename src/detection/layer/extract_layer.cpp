@@ -1,0 +1,212 @@
+// extract_layer(): stages 1-5 composed, with diagnostics and a clear status on bad input.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "layer_stages.hpp"
+
+namespace palletd {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+LayerResult fail(LayerResult result, DetectionStatus status, std::string reason) {
+  result.status = status;
+  result.reason = std::move(reason);
+  result.polygons.clear();
+  return result;
+}
+
+struct RingGeometry {
+  std::vector<Eigen::Vector2d> points;   // border pixels in the layer frame [m]
+  std::vector<Eigen::Vector2d> samples;  // midpoints between layer and off-layer 4-neighbours
+  double pitch_m = 0.0;                  // largest 4-neighbour spacing on this ring [m]
+};
+
+/// Signed distance of pixel (u, v) to the plane, NaN when outside the image or invalid.
+double signed_distance_at(const OrganizedCloud& cloud, const Plane& plane, int u, int v, const PlaneParams& validity) {
+  if (u < 0 || v < 0 || u >= cloud.width || v >= cloud.height) return std::nan("");
+  const Eigen::Vector3f& p = cloud.at(u, v);
+  if (!layer::usable(p, validity)) return std::nan("");
+  return plane.signed_distance(p.cast<double>());
+}
+
+/// Border pixels of one ring in the layer frame, and edge samples between each border pixel and
+/// its off-layer 4-neighbours. A sample lies where the edge crosses the pixel pair: half-way by
+/// default; when the depth steps down beyond the edge, the mixed depths of the pair (their share
+/// of the top face) move it to sub-pixel precision.
+RingGeometry ring_geometry(const layer::RingPixels& ring, const cv::Mat& mask, const layer::PixelToLayer& to_layer,
+                           const OrganizedCloud& cloud, const Plane& plane, double tol_m, const PlaneParams& validity) {
+  RingGeometry g;
+  g.points.reserve(ring.pixels.size());
+  static const int du[4] = {-1, 1, 0, 0};
+  static const int dv[4] = {0, 0, -1, 1};
+  const double min_step = -std::max(3.0 * tol_m, 0.03);
+  std::vector<double> spacing;
+  for (const cv::Point& p : ring.pixels) {
+    const Eigen::Vector2d q = to_layer(p.x, p.y);
+    g.points.push_back(q);
+    for (int k = 0; k < 4; ++k) {
+      const int u = p.x + du[k], v = p.y + dv[k];
+      const bool inside = u >= 0 && v >= 0 && u < mask.cols && v < mask.rows;
+      if (inside && mask.at<std::uint8_t>(v, u) != 0) continue;
+      const Eigen::Vector2d o = to_layer(u, v);
+      double e = 0.5;
+      const double s_far = signed_distance_at(cloud, plane, p.x + 2 * du[k], p.y + 2 * dv[k], validity);
+      if (std::isfinite(s_far) && s_far < min_step) {
+        const double s_in = signed_distance_at(cloud, plane, p.x, p.y, validity);
+        const double s_out = signed_distance_at(cloud, plane, u, v, validity);
+        const double beta = std::isfinite(s_in) ? std::clamp(1.0 - s_in / s_far, 0.0, 1.0) : 1.0;
+        const double alpha = std::isfinite(s_out) ? std::clamp(1.0 - s_out / s_far, 0.0, 1.0) : 0.0;
+        e = std::clamp(beta + alpha - 0.5, 0.0, 1.5);
+      }
+      g.samples.push_back(q + e * (o - q));
+      spacing.push_back((o - q).norm());
+    }
+  }
+  if (!spacing.empty()) {
+    const std::size_t i = std::min(spacing.size() - 1, spacing.size() * 9 / 10);
+    std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(i), spacing.end());
+    g.pitch_m = spacing[i];
+  }
+  return g;
+}
+
+}  // namespace
+
+LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const PlaneParams& plane_params,
+                          const LayerParams& layer_params, const ContourParams& contour_params,
+                          double min_component_area_m2, LayerTrace* trace) {
+  LayerResult result;
+  const auto t_start = Clock::now();
+  const Intrinsics& K = frame.intrinsics;
+  if (!K.valid() || cloud.width != K.width || cloud.height != K.height ||
+      cloud.points.size() != static_cast<std::size_t>(cloud.width) * static_cast<std::size_t>(cloud.height)) {
+    return fail(result, DetectionStatus::bad_frame, "frame intrinsics and organized cloud do not match");
+  }
+  std::size_t finite = 0, usable = 0;
+  for (const Eigen::Vector3f& p : cloud.points) {
+    if (!p.allFinite()) continue;
+    ++finite;
+    if (layer::usable(p, plane_params)) ++usable;
+  }
+  result.diagnostics.valid_points = usable;
+  if (finite == 0) return fail(result, DetectionStatus::bad_frame, "every pixel of the frame is invalid");
+  if (usable * 2 < finite) {
+    std::ostringstream s;
+    s << "most depths are outside [" << plane_params.min_depth_m << ", " << plane_params.max_depth_m
+      << "] m (" << (finite - usable) << " of " << finite << " pixels)";
+    return fail(result, DetectionStatus::bad_frame, s.str());
+  }
+
+  // Stage 1: top plane.
+  const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params);
+  result.diagnostics.plane_candidates = top.candidates;
+  result.diagnostics.t_plane_ms = ms_since(t_start);
+  if (top.status != DetectionStatus::ok) return fail(result, top.status, top.reason);
+  result.plane_camera = top.plane;
+  result.diagnostics.plane_inliers = top.inliers;
+  result.diagnostics.plane_sigma_m = top.sigma_m;
+
+  // Stage 2: layer frame and band.
+  const auto t_layer = Clock::now();
+  result.T_camera_layer = layer::layer_frame(top.plane, top.centroid);
+  const double tol = layer_params.passthrough_tolerance_m > 0.0 ? layer_params.passthrough_tolerance_m
+                                                                 : layer::default_passthrough_tolerance(top.sigma_m);
+  result.diagnostics.passthrough_tolerance_m = tol;
+
+  // Stages 3-4: mask, border, components.
+  layer::LayerMask lm = layer::layer_mask(cloud, top.plane, tol, plane_params);
+  result.diagnostics.filled_dropouts = lm.filled_dropouts;
+  result.diagnostics.touches_image_border = lm.touches_image_border;
+  if (cv::countNonZero(lm.mask) == 0) {
+    result.diagnostics.t_layer_ms = ms_since(t_layer);
+    return fail(result, DetectionStatus::no_layer, "no layer pixels left after cleaning the plane's mask");
+  }
+  layer::Components comps = layer::find_components(lm.mask, lm.border, cloud, top.plane, K, min_component_area_m2,
+                                                   layer_params.min_hole_area_px);
+  result.diagnostics.components = comps.kept.size();
+  result.diagnostics.dropped_components = comps.dropped;
+  result.diagnostics.border_points = static_cast<std::size_t>(cv::countNonZero(lm.border));
+
+  const Eigen::Isometry3d T_layer_camera = result.T_camera_layer.inverse();
+  const Eigen::Matrix3f R = T_layer_camera.linear().cast<float>();
+  const Eigen::Vector3f t = T_layer_camera.translation().cast<float>();
+  for (int v = 0; v < lm.mask.rows; ++v) {
+    const auto* m = lm.mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < lm.mask.cols; ++u) {
+      if (m[u] == 0) continue;
+      const Eigen::Vector3f& p = cloud.at(u, v);
+      if (!layer::usable(p, plane_params)) continue;
+      result.points_2d.push_back((R * p + t).head<2>());
+      result.point_pixels.push_back(v * lm.mask.cols + u);
+    }
+  }
+  result.diagnostics.layer_points = result.points_2d.size();
+  if (trace) {
+    trace->width = lm.mask.cols;
+    trace->height = lm.mask.rows;
+    trace->layer_mask.assign(lm.mask.datastart, lm.mask.dataend);
+    for (auto& m : trace->layer_mask) m = m != 0 ? 1 : 0;
+    trace->border_pixels.clear();
+    for (int v = 0; v < lm.border.rows; ++v)
+      for (int u = 0; u < lm.border.cols; ++u)
+        if (lm.border.at<std::uint8_t>(v, u) != 0) trace->border_pixels.push_back(v * lm.border.cols + u);
+  }
+  result.diagnostics.t_layer_ms = ms_since(t_layer);
+  if (comps.kept.empty()) {
+    std::ostringstream s;
+    s << "no layer component covers " << min_component_area_m2 << " m^2 (" << comps.dropped << " smaller ones dropped)";
+    return fail(result, DetectionStatus::no_layer, s.str());
+  }
+  if (lm.touches_image_border && layer_params.reject_clipped)
+    return fail(result, DetectionStatus::no_layer, "the layer touches the image border; its outline is clipped");
+
+  // Stage 5: crust and polygons.
+  const auto t_contour = Clock::now();
+  const layer::PixelToLayer to_layer(K, top.plane, result.T_camera_layer);
+  auto build_ring = [&](const layer::RingPixels& pixels, bool hole) -> Ring2d {
+    const RingGeometry g = ring_geometry(pixels, lm.mask, to_layer, cloud, top.plane, tol, plane_params);
+    const double d_max = contour_params.d_max_m > 0.0 ? contour_params.d_max_m : 2.0 * g.pitch_m;
+    result.diagnostics.d_max_m = std::max(result.diagnostics.d_max_m, d_max);
+    std::vector<std::pair<int, int>> edges;
+    const std::vector<int> order = layer::crust_ring(g.points, pixels.chain, d_max, trace ? &edges : nullptr);
+    std::vector<Eigen::Vector2d> crust;
+    crust.reserve(order.size());
+    for (const int i : order) crust.push_back(g.points[static_cast<std::size_t>(i)]);
+    if (trace) {
+      for (const auto& [a, b] : edges)
+        trace->crust_edges.emplace_back(g.points[static_cast<std::size_t>(a)], g.points[static_cast<std::size_t>(b)]);
+      trace->crust_rings.push_back(crust);
+    }
+    Ring2d ring = layer::simplify_ring(crust, g.samples, g.pitch_m, contour_params);
+    if (ring.size() < 3) ring = crust;
+    // A ring enclosing less than two pixel footprints is no outline (e.g. a collapsed sliver).
+    if (ring.size() < 3 || std::abs(signed_area(ring)) < 2.0 * g.pitch_m * g.pitch_m) return {};
+    const double a = signed_area(ring);
+    if ((a < 0.0) != hole) std::reverse(ring.begin(), ring.end());
+    return ring;
+  };
+  for (const layer::Component& comp : comps.kept) {
+    PolygonWithHoles poly;
+    poly.outer = build_ring(comp.outer, false);
+    if (poly.outer.size() < 3) continue;
+    for (const layer::RingPixels& hole : comp.holes) {
+      Ring2d ring = build_ring(hole, true);
+      if (ring.size() >= 3) poly.holes.push_back(std::move(ring));
+    }
+    result.polygons.push_back(std::move(poly));
+  }
+  result.diagnostics.t_contour_ms = ms_since(t_contour);
+  if (result.polygons.empty()) return fail(result, DetectionStatus::no_layer, "no closed outline could be traced");
+  result.status = DetectionStatus::ok;
+  if (lm.touches_image_border) result.reason = "the layer touches the image border; its outline is clipped there";
+  return result;
+}
+
+}  // namespace palletd

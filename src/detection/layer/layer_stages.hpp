@@ -1,0 +1,128 @@
+// The stages of extract_layer(), each a function of values in and values out (private header;
+// the tests include it to check each stage alone).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "palletd/frame.hpp"
+#include "palletd/geometry.hpp"
+#include "palletd/layer.hpp"
+
+namespace palletd::layer {
+
+// ---- stage 1: top plane ----------------------------------------------------------------------
+
+struct TopPlane {
+  DetectionStatus status = DetectionStatus::no_plane;
+  std::string reason;
+  Plane plane;                 ///< refitted, normal toward the camera
+  double sigma_m = 0.0;        ///< RMS residual of the refit inliers [m]
+  std::size_t valid_points = 0;
+  std::size_t inliers = 0;     ///< full-resolution refit inliers
+  std::size_t candidates = 0;  ///< planes with enough area seen on the way
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< of the refit inliers, camera frame [m]
+};
+
+/// Footprint area of one pixel seen at depth z_m on a plane at distance plane_distance_m [m^2].
+double pixel_area_m2(double z_m, double plane_distance_m, const Intrinsics& intrinsics);
+
+/// True when the point is finite and its depth within [min_depth_m, max_depth_m].
+bool usable(const Eigen::Vector3f& p, const PlaneParams& params);
+
+/// Finds the top plane: the nearest (along its normal) plane facing the camera whose inliers
+/// cover at least min_plane_area_m2; refits it by least squares on full-resolution inliers.
+TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsics,
+                        const PlaneParams& params);
+
+// ---- stage 2: plane frame --------------------------------------------------------------------
+
+/// Layer frame: z along the normal (toward the camera), x the projection of the camera x axis,
+/// origin the projection of `origin_camera` onto the plane. Returns T_camera_layer.
+Eigen::Isometry3d layer_frame(const Plane& plane, const Eigen::Vector3d& origin_camera);
+
+/// Default passthrough band from the refit residual [m].
+double default_passthrough_tolerance(double sigma_m);
+
+// ---- stage 3: mask and border ----------------------------------------------------------------
+
+struct LayerMask {
+  cv::Mat mask;    ///< CV_8U, 255 = layer pixel after cleaning
+  cv::Mat border;  ///< CV_8U, 255 = border pixel (a layer pixel with an 8-neighbour off the layer)
+  std::size_t raw_layer_pixels = 0;
+  std::size_t filled_dropouts = 0;
+  bool touches_image_border = false;
+};
+
+/// Layer pixels (|signed distance| <= tolerance), invalid pixels nearly surrounded by layer
+/// filled, one-pixel spurs (flying pixels) removed by an opening, border pixels marked.
+LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, double tolerance_m,
+                     const PlaneParams& validity);
+
+/// Border pixels of a mask from the 8-neighbourhood (pixels outside the image count as off).
+cv::Mat border_of(const cv::Mat& mask);
+
+// ---- stage 4: components and holes -----------------------------------------------------------
+
+/// One ring's border pixels in chain order (the order findContours traced them, first visit).
+struct RingPixels {
+  std::vector<cv::Point> pixels;
+  std::vector<int> chain;  ///< position along the traced contour of each pixel
+  bool hole = false;
+};
+
+struct Component {
+  RingPixels outer;
+  std::vector<RingPixels> holes;
+  double area_m2 = 0.0;
+};
+
+struct Components {
+  std::vector<Component> kept;
+  std::size_t dropped = 0;
+};
+
+/// Components (8-connected) with their holes from cv::findContours (RETR_CCOMP); components
+/// smaller than min_area_m2 dropped (and erased from `mask`), holes enclosing <= min_hole_area_px
+/// filled in `mask` (dropouts). `border` is recomputed from the cleaned mask; every border pixel
+/// next to a traced ring joins that ring.
+Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud& cloud,
+                           const Plane& plane, const Intrinsics& intrinsics, double min_area_m2,
+                           int min_hole_area_px);
+
+// ---- stage 5: crust and polygon ----------------------------------------------------------------
+
+/// Pixel -> layer-plane coordinates through the pixel's viewing ray (exact, noise-free in z).
+class PixelToLayer {
+ public:
+  PixelToLayer(const Intrinsics& intrinsics, const Plane& plane, const Eigen::Isometry3d& T_camera_layer);
+  /// Layer-frame xy of the ray of pixel (u, v) (may lie outside the image) meeting the plane.
+  [[nodiscard]] Eigen::Vector2d operator()(double u, double v) const;
+
+ private:
+  Intrinsics intrinsics_;
+  Plane plane_;
+  Eigen::Isometry3d T_layer_camera_;
+  cv::Mat camera_matrix_, distortion_;
+};
+
+/// Crust: Delaunay of the points, edges longer than d_max pruned, convex-hull anchors joined by
+/// shortest paths. `chain` gives each point's position along its traced ring (restricts each
+/// path to its stretch of the ring). Returns the ring as point indices; fills `kept_edges`.
+std::vector<int> crust_ring(const std::vector<Eigen::Vector2d>& points, const std::vector<int>& chain,
+                            double d_max_m, std::vector<std::pair<int, int>>* kept_edges);
+
+/// Simplifies an ordered ring to a polygon: corner candidates by Douglas-Peucker, one line fitted
+/// per edge to the edge samples (midpoints between layer and off-layer pixels), near-grid edges
+/// snapped to the ring's dominant direction, near-parallel neighbours merged, corners from
+/// intersecting consecutive lines. Orientation as given by the ring.
+Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector<Eigen::Vector2d>& samples,
+                     double pitch_m, const ContourParams& params);
+
+}  // namespace palletd::layer

@@ -1,0 +1,184 @@
+// Stages 3-4: layer mask in image space, border pixels, components and holes (OpenCV).
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "layer_stages.hpp"
+
+namespace palletd::layer {
+
+cv::Mat border_of(const cv::Mat& mask) {
+  cv::Mat eroded;
+  // A layer pixel is interior when all 8 neighbours are layer; outside the image counts as off.
+  cv::erode(mask, eroded, cv::Mat::ones(3, 3, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT,
+            cv::Scalar(0));
+  cv::Mat border;
+  cv::subtract(mask, eroded, border);
+  return border;
+}
+
+LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, double tolerance_m,
+                     const PlaneParams& validity) {
+  LayerMask out;
+  const int w = cloud.width, h = cloud.height;
+  cv::Mat raw(h, w, CV_8U, cv::Scalar(0));
+  cv::Mat fillable(h, w, CV_8U, cv::Scalar(255));  // invalid, or a noise outlier near the plane
+  const Eigen::Vector3f n = plane.normal.cast<float>();
+  const auto d = static_cast<float>(plane.d);
+  const auto tol = static_cast<float>(tolerance_m);
+  for (int v = 0; v < h; ++v) {
+    auto* row = raw.ptr<std::uint8_t>(v);
+    auto* fil = fillable.ptr<std::uint8_t>(v);
+    for (int u = 0; u < w; ++u) {
+      const Eigen::Vector3f& p = cloud.at(u, v);
+      if (!usable(p, validity)) continue;
+      const float s = std::abs(n.dot(p) + d);
+      if (s > 2.0F * tol) fil[u] = 0;  // a real surface off the layer (e.g. seen through a gap)
+      if (s <= tol) {
+        row[u] = 255;
+        ++out.raw_layer_pixels;
+      }
+    }
+  }
+  // Dropouts and noise outliers (invalid, or within twice the band): such a pixel with at least 7
+  // of its 8 neighbours on the layer is layer. Two passes close pairs and small clusters; a one-pixel-wide line (6
+  // neighbours), i.e. a real gap, stays.
+  for (int pass = 0; pass < 2; ++pass) {
+    cv::Mat ones, count, off, fill;
+    cv::threshold(raw, ones, 0, 1, cv::THRESH_BINARY);
+    cv::boxFilter(ones, count, CV_8U, cv::Size(3, 3), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+    cv::compare(raw, 0, off, cv::CMP_EQ);
+    cv::compare(count, 7, fill, cv::CMP_GE);
+    cv::bitwise_and(fill, off, fill);
+    cv::bitwise_and(fill, fillable, fill);
+    const int n_fill = cv::countNonZero(fill);
+    if (n_fill == 0) break;
+    out.filled_dropouts += static_cast<std::size_t>(n_fill);
+    raw.setTo(255, fill);
+  }
+  // Flying pixels and one-pixel spurs at the edge: a 3x3 opening.
+  cv::morphologyEx(raw, out.mask, cv::MORPH_OPEN, cv::Mat::ones(3, 3, CV_8U), cv::Point(-1, -1), 1,
+                   cv::BORDER_CONSTANT, cv::Scalar(0));
+  if (w > 0 && h > 0) {
+    out.touches_image_border = cv::countNonZero(out.mask.row(0)) > 0 ||
+                               cv::countNonZero(out.mask.row(h - 1)) > 0 ||
+                               cv::countNonZero(out.mask.col(0)) > 0 ||
+                               cv::countNonZero(out.mask.col(w - 1)) > 0;
+  }
+  out.border = border_of(out.mask);
+  return out;
+}
+
+Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud& cloud,
+                           const Plane& plane, const Intrinsics& intrinsics, double min_area_m2,
+                           int min_hole_area_px) {
+  (void)cloud;
+  Components out;
+  std::vector<std::vector<cv::Point>> contours;
+  std::vector<cv::Vec4i> hierarchy;
+  cv::findContours(mask.clone(), contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
+
+  cv::Mat labels;
+  const int n_labels = cv::connectedComponents(mask, labels, 8, CV_32S);
+  std::vector<double> label_area(static_cast<std::size_t>(std::max(n_labels, 1)), 0.0);
+  const double dist = std::max(plane.d, 1e-6);
+  for (int v = 0; v < mask.rows; ++v) {
+    const auto* lab = labels.ptr<std::int32_t>(v);
+    const double ry = (static_cast<double>(v) - intrinsics.cy) / intrinsics.fy;
+    for (int u = 0; u < mask.cols; ++u) {
+      if (lab[u] <= 0) continue;
+      const double rx = (static_cast<double>(u) - intrinsics.cx) / intrinsics.fx;
+      const double denom = -(plane.normal.x() * rx + plane.normal.y() * ry + plane.normal.z());
+      const double z = denom > 1e-9 ? dist / denom : 0.0;
+      label_area[static_cast<std::size_t>(lab[u])] += pixel_area_m2(z, dist, intrinsics);
+    }
+  }
+
+  // Ring id per traced contour pixel, chain position per pixel.
+  cv::Mat ring_id(mask.size(), CV_32S, cv::Scalar(-1));
+  cv::Mat chain_pos(mask.size(), CV_32S, cv::Scalar(-1));
+  struct RingRef {
+    std::size_t component;
+    int hole;  // -1 = outer
+  };
+  std::vector<RingRef> refs;
+  std::vector<char> label_dropped(label_area.size(), 0);
+  auto take_ring = [&](const std::vector<cv::Point>& contour, RingPixels& ring) {
+    const int id = static_cast<int>(refs.size()) - 1;
+    for (const cv::Point& p : contour) {
+      if (ring_id.at<std::int32_t>(p) >= 0) continue;  // first visit only
+      ring_id.at<std::int32_t>(p) = id;
+      chain_pos.at<std::int32_t>(p) = static_cast<int>(ring.pixels.size());
+      ring.pixels.push_back(p);
+    }
+  };
+  for (std::size_t i = 0; i < contours.size(); ++i) {
+    if (hierarchy[i][3] >= 0) continue;  // holes are visited through their parent
+    const int label = labels.at<std::int32_t>(contours[i].front());
+    const double area = label > 0 ? label_area[static_cast<std::size_t>(label)] : 0.0;
+    if (area < min_area_m2) {
+      ++out.dropped;
+      if (label > 0) label_dropped[static_cast<std::size_t>(label)] = 1;
+      continue;
+    }
+    Component comp;
+    comp.area_m2 = area;
+    out.kept.push_back(comp);
+    refs.push_back({out.kept.size() - 1, -1});
+    take_ring(contours[i], out.kept.back().outer);
+    for (int c = hierarchy[i][2]; c >= 0; c = hierarchy[static_cast<std::size_t>(c)][0]) {
+      const auto& hole = contours[static_cast<std::size_t>(c)];
+      if (std::abs(cv::contourArea(hole)) <= static_cast<double>(min_hole_area_px)) {
+        // Too small to be a gap between boxes: a cluster of dropouts. Take it as layer.
+        cv::drawContours(mask, contours, c, cv::Scalar(255), cv::FILLED);
+        continue;
+      }
+      RingPixels ring;
+      ring.hole = true;
+      out.kept.back().holes.push_back(ring);
+      refs.push_back({out.kept.size() - 1, static_cast<int>(out.kept.back().holes.size()) - 1});
+      take_ring(hole, out.kept.back().holes.back());
+    }
+  }
+  // Dropped components leave the mask.
+  for (int v = 0; v < mask.rows; ++v) {
+    const auto* lab = labels.ptr<std::int32_t>(v);
+    auto* m = mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < mask.cols; ++u)
+      if (lab[u] > 0 && label_dropped[static_cast<std::size_t>(lab[u])] != 0) m[u] = 0;
+  }
+  border = border_of(mask);
+
+  // Border pixels the tracer did not visit join the ring of a traced neighbour.
+  auto ring_of = [&](std::size_t r) -> RingPixels& {
+    Component& comp = out.kept[refs[r].component];
+    return refs[r].hole < 0 ? comp.outer : comp.holes[static_cast<std::size_t>(refs[r].hole)];
+  };
+  for (std::size_t r = 0; r < refs.size(); ++r) ring_of(r).chain.resize(ring_of(r).pixels.size());
+  for (std::size_t r = 0; r < refs.size(); ++r) {
+    RingPixels& ring = ring_of(r);
+    for (std::size_t k = 0; k < ring.chain.size(); ++k) ring.chain[k] = static_cast<int>(k);
+  }
+  for (int v = 0; v < border.rows; ++v) {
+    const auto* b = border.ptr<std::uint8_t>(v);
+    for (int u = 0; u < border.cols; ++u) {
+      if (b[u] == 0 || ring_id.at<std::int32_t>(v, u) >= 0) continue;
+      for (int k = 0; k < 8; ++k) {
+        static const int du[8] = {-1, 1, 0, 0, -1, 1, -1, 1};
+        static const int dv[8] = {0, 0, -1, 1, -1, -1, 1, 1};
+        const int uu = u + du[k], vv = v + dv[k];
+        if (uu < 0 || vv < 0 || uu >= border.cols || vv >= border.rows) continue;
+        const int id = ring_id.at<std::int32_t>(vv, uu);
+        if (id < 0) continue;
+        RingPixels& ring = ring_of(static_cast<std::size_t>(id));
+        ring.pixels.emplace_back(u, v);
+        ring.chain.push_back(chain_pos.at<std::int32_t>(vv, uu));
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace palletd::layer

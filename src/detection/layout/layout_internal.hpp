@@ -1,0 +1,183 @@
+// Private to the layout stage: the layout frame, candidate lines, area tables, searches.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "palletd/layout.hpp"
+
+namespace palletd::layout_detail {
+
+/// Rectangle in the layout frame [m] (axis-aligned).
+struct Rect {
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  [[nodiscard]] double area() const { return (x1 - x0) * (y1 - y0); }
+};
+double overlap(const Rect& a, const Rect& b);
+
+/// A box placed in the layout frame.
+struct FrameBox {
+  Rect rect;
+  int format = 0;
+  bool long_along_x = true;
+};
+
+/// The frame in which a component's layout is axis-aligned: p_frame = R(-theta) (p_layer - pivot).
+struct LayoutFrame {
+  double theta_rad = 0.0;  ///< orientation of the layout mod 90 deg, in [0, pi/2)
+  Eigen::Vector2d pivot = Eigen::Vector2d::Zero();
+  [[nodiscard]] Eigen::Vector2d to_frame(const Eigen::Vector2d& p) const;
+  [[nodiscard]] Eigen::Vector2d to_layer(const Eigen::Vector2d& q) const;
+  [[nodiscard]] PolygonWithHoles to_frame(const PolygonWithHoles& polygon) const;
+  [[nodiscard]] Box2d to_layer(const FrameBox& box, const std::vector<BoxFormat>& formats) const;
+};
+
+/// An orthogonal (convex or concave) corner of a ring.
+struct Corner {
+  Eigen::Vector2d v, prev, next;  ///< vertex and its neighbours
+  bool convex = true;
+};
+std::vector<Corner> orthogonal_corners(const PolygonWithHoles& polygon, double angle_tol_deg,
+                                       double min_edge_m);
+
+/// Layout orientations mod 90 deg of a component, best supported first (length-weighted edges
+/// near the orientations of its orthogonal corners). Empty when there is no orthogonal corner.
+std::vector<double> layout_orientations(const PolygonWithHoles& polygon, double angle_tol_deg,
+                                        double min_edge_m);
+
+/// Seam evidence turned into a layout frame, line-filtered, as a summed-area table.
+class SeamTable {
+ public:
+  SeamTable() = default;
+  SeamTable(const SeamEvidence& seams, const LayoutFrame& frame, const Rect& bounds);
+  [[nodiscard]] bool empty() const { return w_ == 0; }
+  /// Seam mass [m^2] (sum of seam values times cell area) inside a rectangle.
+  [[nodiscard]] double mass(const Rect& r) const;
+  /// Mean seam value along a thin strip.
+  [[nodiscard]] double mean(const Rect& r) const;
+  /// Mean seam value along a thin strip, seams widened by the search margin (edge support).
+  [[nodiscard]] double support(const Rect& r) const;
+  [[nodiscard]] double cell() const { return cell_; }
+
+ private:
+  double sum_cells(const std::vector<double>& sat, const Rect& r, double* cells) const;
+  double x0_ = 0, y0_ = 0, cell_ = 0;
+  int w_ = 0, h_ = 0;
+  std::vector<double> sat_;          ///< (h+1) x (w+1), line-filtered seams
+  std::vector<double> sat_support_;  ///< the same, dilated across lines
+};
+
+/// A box-centred view of a layout frame's seam table: local x along the box's long side.
+/// Boxes of a layout are turned by 0 or 90 deg against the frame, so local rectangles stay
+/// axis-aligned rectangles of the frame.
+struct BoxView {
+  const SeamTable* table = nullptr;
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();  ///< box centre in the frame
+  bool turned = false;  ///< local x = frame -y, local y = frame x
+  [[nodiscard]] Rect map(const Rect& r) const {
+    if (!turned) return {center.x() + r.x0, center.y() + r.y0, center.x() + r.x1, center.y() + r.y1};
+    return {center.x() + r.y0, center.y() - r.x1, center.x() + r.y1, center.y() - r.x0};
+  }
+  [[nodiscard]] double mean(const Rect& r) const { return table->mean(map(r)); }
+  [[nodiscard]] double support(const Rect& r) const { return table->support(map(r)); }
+  [[nodiscard]] double cell() const { return table->cell(); }
+};
+
+/// How the edges of a box that have layer beyond them (neighbours) lie on seams.
+struct EdgeEvidence {
+  double neighbour_len = 0.0;  ///< length of edge with layer beyond it [m]
+  double supported_len = 0.0;  ///< of which on a seam (weighted by seam value) [m]
+};
+
+/// Walks the four edges of `r` in segments; `layer_area(rect)` gives the layer area of a rect.
+template <typename Table, typename AreaFn>
+EdgeEvidence edge_evidence(const Rect& r, const Table& table, AreaFn&& layer_area, double margin_m) {
+  EdgeEvidence ev;
+  const double seg = 0.04;
+  for (int e = 0; e < 4; ++e) {
+    const bool vertical = e < 2;
+    const double pos = e == 0 ? r.x0 : e == 1 ? r.x1 : e == 2 ? r.y0 : r.y1;
+    const double out = (e == 0 || e == 2) ? -1.0 : 1.0;
+    const double lo = (vertical ? r.y0 : r.x0) + margin_m, hi = (vertical ? r.y1 : r.x1) - margin_m;
+    if (hi <= lo) continue;
+    const int n = std::max(1, static_cast<int>((hi - lo) / seg + 0.5));
+    const double step = (hi - lo) / n;
+    const double a0 = pos + out * margin_m, a1 = pos + out * 3 * margin_m;
+    const double c = table.cell();
+    for (int k = 0; k < n; ++k) {
+      const double s0 = lo + k * step, s1 = s0 + step;
+      const Rect beyond = vertical ? Rect{std::min(a0, a1), s0, std::max(a0, a1), s1}
+                                   : Rect{s0, std::min(a0, a1), s1, std::max(a0, a1)};
+      if (layer_area(beyond) < 0.5 * beyond.area()) continue;
+      const Rect line = vertical ? Rect{pos - c / 2, s0, pos + c / 2, s1} : Rect{s0, pos - c / 2, s1, pos + c / 2};
+      ev.neighbour_len += step;
+      ev.supported_len += step * std::min(1.0, 2.0 * table.support(line));  // half a seam counts
+    }
+  }
+  return ev;
+}
+
+/// Area(rect ∩ polygon) by the chosen method, in the layout frame.
+class AreaOracle {
+ public:
+  AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method, double raster_cell_m);
+  [[nodiscard]] double area(const Rect& r) const;
+
+ private:
+  const PolygonWithHoles* polygon_;
+  AreaMethod method_;
+  double x0_ = 0, y0_ = 0, cell_ = 0;
+  int w_ = 0, h_ = 0;
+  std::vector<double> sat_;
+};
+
+struct Deadline {
+  std::chrono::steady_clock::time_point end;
+  [[nodiscard]] bool passed() const { return std::chrono::steady_clock::now() >= end; }
+};
+
+/// One component's answer in its layout frame.
+struct ComponentSolution {
+  bool found = false;
+  std::vector<FrameBox> boxes;
+  double score = 0.0;       ///< [m^2]
+  bool has_runner_up = false;
+  std::vector<FrameBox> runner_up;
+  double runner_up_score = 0.0;
+  bool budget_exhausted = false;
+  std::size_t visited = 0;
+  std::string reason;       ///< when !found
+};
+
+/// Rings simplified (Douglas-Peucker, tolerance_m) so that densely sampled or jagged outlines
+/// still show their long straight edges; used for corners, orientations and candidate lines.
+PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m);
+
+/// Product search in one layout frame. `frame_edges` (the simplified outline, same frame) gives
+/// the candidate lines; `frame_polygon` the exact areas.
+ComponentSolution search_product(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
+                                 const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                                 const SeamTable* seams, const Deadline& deadline);
+
+/// Algorithms 1-3 in the layer frame (no layout frame; the paper's boxes carry their own angle).
+struct PaperSolution {
+  bool found = false;
+  std::vector<Box2d> boxes;
+  double score = 0.0;
+  bool cap_hit = false;
+  std::size_t visited = 0;
+};
+PaperSolution search_paper(const PolygonWithHoles& polygon, const PolygonWithHoles& edges,
+                           const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                           const Deadline& deadline);
+
+/// Two frame layouts are the same when every box has a twin (same orientation, centres closer
+/// than tol_m).
+bool same_layout(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b, double tol_m);
+
+}  // namespace palletd::layout_detail

@@ -1,0 +1,96 @@
+#include "poses.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace palletd {
+
+double box_yaw_deg(const Eigen::Vector3d& long_axis_base) {
+  double yaw = std::atan2(long_axis_base.y(), long_axis_base.x()) * 180.0 / M_PI;
+  while (yaw > 90.0) yaw -= 180.0;
+  while (yaw <= -90.0) yaw += 180.0;
+  return yaw;
+}
+
+namespace {
+
+// Position used for ordering: base frame when calibrated, else the layer frame (x, y in the plane).
+Eigen::Vector2d ordering_position(const DetectedBox& box) {
+  if (box.base_position) return box.base_position->head<2>();
+  return box.in_layer.center;
+}
+
+void assign_pick_order(std::vector<DetectedBox>& boxes, PickOrder order) {
+  std::vector<std::size_t> idx(boxes.size());
+  std::iota(idx.begin(), idx.end(), std::size_t{0});
+  if (!boxes.empty()) {
+    // Reference point: the robot base (origin) when calibrated; else the layer's centroid.
+    Eigen::Vector2d reference = Eigen::Vector2d::Zero();
+    if (!boxes.front().base_position) {
+      for (const auto& b : boxes) reference += b.in_layer.center;
+      reference /= static_cast<double>(boxes.size());
+    }
+    // Rows are grouped with a tolerance of half the smallest box side.
+    double row_tolerance_m = 1e9;
+    for (const auto& b : boxes) row_tolerance_m = std::min(row_tolerance_m, 0.5 * b.short_m);
+    auto key_distance = [&](std::size_t i) { return (ordering_position(boxes[i]) - reference).norm(); };
+    switch (order) {
+      case PickOrder::far_corner_first:
+        std::stable_sort(idx.begin(), idx.end(),
+                         [&](std::size_t a, std::size_t b) { return key_distance(a) > key_distance(b); });
+        break;
+      case PickOrder::nearest_first:
+        std::stable_sort(idx.begin(), idx.end(),
+                         [&](std::size_t a, std::size_t b) { return key_distance(a) < key_distance(b); });
+        break;
+      case PickOrder::row_major:
+        std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
+          const Eigen::Vector2d pa = ordering_position(boxes[a]);
+          const Eigen::Vector2d pb = ordering_position(boxes[b]);
+          if (std::abs(pa.x() - pb.x()) > row_tolerance_m) return pa.x() < pb.x();
+          return pa.y() < pb.y();
+        });
+        break;
+    }
+  }
+  std::vector<DetectedBox> sorted;
+  sorted.reserve(boxes.size());
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    sorted.push_back(boxes[idx[k]]);
+    sorted.back().pick_index = static_cast<int>(k);
+  }
+  boxes = std::move(sorted);
+}
+
+}  // namespace
+
+std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, const std::vector<double>& scores,
+                                           const Eigen::Isometry3d& T_camera_layer,
+                                           const std::optional<Eigen::Isometry3d>& T_base_camera,
+                                           PickOrder order) {
+  std::vector<DetectedBox> out;
+  out.reserve(boxes.size());
+  const Eigen::Matrix3d R_camera_layer = T_camera_layer.linear();
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const Box2d& b = boxes[i];
+    DetectedBox d;
+    d.in_layer = b;
+    d.center = T_camera_layer * Eigen::Vector3d(b.center.x(), b.center.y(), 0.0);
+    d.long_axis = R_camera_layer * Eigen::Vector3d(std::cos(b.yaw_rad), std::sin(b.yaw_rad), 0.0);
+    d.normal = R_camera_layer * Eigen::Vector3d::UnitZ();
+    d.long_m = b.long_m;
+    d.short_m = b.short_m;
+    d.format = b.format;
+    d.score = i < scores.size() ? scores[i] : 0.0;
+    if (T_base_camera) {
+      d.base_position = *T_base_camera * d.center;
+      d.base_yaw_deg = box_yaw_deg(T_base_camera->linear() * d.long_axis);
+    }
+    out.push_back(std::move(d));
+  }
+  assign_pick_order(out, order);
+  return out;
+}
+
+}  // namespace palletd

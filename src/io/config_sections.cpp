@@ -1,0 +1,164 @@
+// Configuration sections with a shape of their own: intrinsics override, camera_to_base, box
+// formats and recipes, network addresses.
+#include <arpa/inet.h>
+
+#include <cmath>
+#include <map>
+
+#include "config_yaml.hpp"
+
+namespace palletd::config_detail {
+
+namespace {
+
+// (Never assign one YAML::Node to another: yaml-cpp's assignment rewrites the referenced node.)
+YAML::Node require(const Context& ctx, const YAML::Node& map, const std::string& path, const char* key) {
+  YAML::Node value = map[key];
+  if (!value) fail(ctx, map, path, std::string("missing key '") + key + "'");
+  return value;
+}
+
+std::string index_path(const std::string& path, std::size_t i) { return path + "[" + std::to_string(i) + "]"; }
+
+}  // namespace
+
+std::optional<Intrinsics> read_intrinsics(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  if (node.IsNull()) return std::nullopt;
+  if (!node.IsMap()) fail(ctx, node, path, "expected a mapping (width, height, fx, fy, cx, cy, distortion) or null");
+  check_keys(ctx, node, path, {"width", "height", "fx", "fy", "cx", "cy", "distortion"});
+  Intrinsics k;
+  for (auto [key, out] : {std::pair<const char*, int*>{"width", &k.width}, {"height", &k.height}}) {
+    const YAML::Node v = require(ctx, node, path, key);
+    const long long n = read_integer(ctx, v, join(path, key));
+    if (n < 1 || n > 10000) fail(ctx, v, join(path, key), "must be between 1 and 10000");
+    *out = static_cast<int>(n);
+  }
+  for (auto [key, out] : {std::pair<const char*, double*>{"fx", &k.fx}, {"fy", &k.fy}}) {
+    const YAML::Node v = require(ctx, node, path, key);
+    *out = read_double(ctx, v, join(path, key));
+    if (*out <= 0.0) fail(ctx, v, join(path, key), "focal length must be > 0");
+  }
+  for (auto [key, out] : {std::pair<const char*, double*>{"cx", &k.cx}, {"cy", &k.cy}})
+    *out = read_double(ctx, require(ctx, node, path, key), join(path, key));
+  if (const YAML::Node d = node["distortion"]; d && !d.IsNull()) {
+    const std::string dpath = join(path, "distortion");
+    if (!d.IsSequence() || d.size() != 5)
+      fail(ctx, d, dpath, "expected a list of 5 numbers (k1 k2 p1 p2 k3), got " + describe(d));
+    std::array<double, 5> coeffs{};
+    for (std::size_t i = 0; i < 5; ++i) coeffs[i] = read_double(ctx, d[i], index_path(dpath, i));
+    k.distortion = coeffs;
+  }
+  return k;
+}
+
+std::optional<Eigen::Isometry3d> read_camera_to_base(const Context& ctx, const YAML::Node& node,
+                                                     const std::string& path) {
+  if (node.IsNull()) return std::nullopt;
+  if (!node.IsSequence() || node.size() != 16)
+    fail(ctx, node, path, "expected a list of 16 numbers (4x4 row-major) or null, got " + describe(node));
+  Eigen::Matrix4d t;
+  for (std::size_t i = 0; i < 16; ++i)
+    t(static_cast<Eigen::Index>(i / 4), static_cast<Eigen::Index>(i % 4)) =
+        read_double(ctx, node[i], index_path(path, i));
+  const Eigen::Matrix3d r = t.topLeftCorner<3, 3>();
+  if (t(3, 0) != 0.0 || t(3, 1) != 0.0 || t(3, 2) != 0.0 || t(3, 3) != 1.0)
+    fail(ctx, node, path, "is not a rigid transform: the last row must be 0 0 0 1");
+  const double error = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (error > 1e-3 || r.determinant() < 0.0)
+    fail(ctx, node, path, "is not a rigid transform: the rotation part must be orthonormal with determinant +1");
+  Eigen::Isometry3d iso = Eigen::Isometry3d::Identity();
+  iso.matrix() = t;
+  return iso;
+}
+
+std::vector<BoxFormat> read_formats(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  std::vector<BoxFormat> formats;
+  if (node.IsNull()) return formats;
+  if (!node.IsSequence()) fail(ctx, node, path, "expected a list of {name, long_mm, short_mm}, got " + describe(node));
+  std::map<std::string, std::size_t> seen;
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    const YAML::Node entry = node[i];
+    const std::string epath = index_path(path, i);
+    if (!entry.IsMap()) fail(ctx, entry, epath, "expected a mapping {name, long_mm, short_mm}, got " + describe(entry));
+    check_keys(ctx, entry, epath, {"name", "long_mm", "short_mm"});
+    BoxFormat f;
+    const YAML::Node name_node = require(ctx, entry, epath, "name");
+    f.name = read_string(ctx, name_node, join(epath, "name"));
+    if (f.name.empty()) fail(ctx, name_node, join(epath, "name"), "must not be empty");
+    if (const auto it = seen.find(f.name); it != seen.end())
+      fail(ctx, name_node, join(epath, "name"), "format '" + f.name + "' is already defined by " + index_path(path, it->second));
+    seen.emplace(f.name, i);
+    const YAML::Node long_node = require(ctx, entry, epath, "long_mm");
+    const double long_mm = read_double(ctx, long_node, join(epath, "long_mm"));
+    if (long_mm <= 0.0 || long_mm > 5000.0) fail(ctx, long_node, join(epath, "long_mm"), "must be > 0 and <= 5000");
+    const YAML::Node short_node = require(ctx, entry, epath, "short_mm");
+    const double short_mm = read_double(ctx, short_node, join(epath, "short_mm"));
+    if (short_mm <= 0.0) fail(ctx, short_node, join(epath, "short_mm"), "must be > 0");
+    if (short_mm > long_mm) fail(ctx, short_node, join(epath, "short_mm"), "must not exceed long_mm (long side first)");
+    f.long_m = long_mm / 1000.0;
+    f.short_m = short_mm / 1000.0;
+    formats.push_back(std::move(f));
+  }
+  return formats;
+}
+
+std::vector<Recipe> read_recipes(const Context& ctx, const YAML::Node& node, const std::string& path,
+                                 const std::vector<BoxFormat>& formats) {
+  std::vector<Recipe> recipes;
+  if (node.IsNull()) return recipes;
+  if (!node.IsSequence()) fail(ctx, node, path, "expected a list of {number, name, formats}, got " + describe(node));
+  std::map<int, std::size_t> seen;
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    const YAML::Node entry = node[i];
+    const std::string epath = index_path(path, i);
+    if (!entry.IsMap()) fail(ctx, entry, epath, "expected a mapping {number, name, formats}, got " + describe(entry));
+    check_keys(ctx, entry, epath, {"number", "name", "formats"});
+    Recipe r;
+    const YAML::Node v = require(ctx, entry, epath, "number");
+    const long long number = read_integer(ctx, v, join(epath, "number"));
+    if (number < 1 || number > 65535) fail(ctx, v, join(epath, "number"), "must be between 1 and 65535");
+    r.number = static_cast<int>(number);
+    if (const auto it = seen.find(r.number); it != seen.end())
+      fail(ctx, v, join(epath, "number"),
+           "recipe number " + std::to_string(r.number) + " is already used by " + index_path(path, it->second));
+    seen.emplace(r.number, i);
+    if (const YAML::Node name = entry["name"]) r.name = read_string(ctx, name, join(epath, "name"));
+    const std::string fpath = join(epath, "formats");
+    const YAML::Node names = require(ctx, entry, epath, "formats");
+    const std::vector<std::string> list = read_strings(ctx, names, fpath);
+    if (list.empty()) fail(ctx, names, fpath, "a recipe needs at least one format");
+    for (std::size_t k = 0; k < list.size(); ++k) {
+      const auto it = std::find_if(formats.begin(), formats.end(), [&](const BoxFormat& f) { return f.name == list[k]; });
+      if (it == formats.end())
+        fail(ctx, names[k], index_path(fpath, k), "unknown format '" + list[k] + "' (not defined under formats)");
+      r.formats.push_back(static_cast<int>(it - formats.begin()));
+    }
+    recipes.push_back(std::move(r));
+  }
+  return recipes;
+}
+
+std::string check_address(const std::string& text, bool allow_prefix) {
+  std::string address = text;
+  int prefix = -1;
+  if (const auto slash = text.find('/'); slash != std::string::npos) {
+    if (!allow_prefix) return "'" + text + "' must be a plain IP address (no /prefix)";
+    address = text.substr(0, slash);
+    const std::string digits = text.substr(slash + 1);
+    if (digits.empty() || digits.size() > 3 || digits.find_first_not_of("0123456789") != std::string::npos)
+      return "'" + text + "' has a bad prefix length";
+    prefix = std::stoi(digits);
+  }
+  unsigned char buffer[16];
+  if (inet_pton(AF_INET, address.c_str(), buffer) == 1) {
+    if (prefix > 32) return "'" + text + "': an IPv4 prefix length is at most 32";
+    return {};
+  }
+  if (inet_pton(AF_INET6, address.c_str(), buffer) == 1) {
+    if (prefix > 128) return "'" + text + "': an IPv6 prefix length is at most 128";
+    return {};
+  }
+  return "'" + text + "' is not an IP address" + std::string(allow_prefix ? " or CIDR block" : "");
+}
+
+}  // namespace palletd::config_detail

@@ -1,0 +1,197 @@
+#include "palletd/modbus/register_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace palletd::modbus {
+namespace {
+
+template <typename Int>
+Int saturate_round(double value) {
+  if (!std::isfinite(value)) return 0;
+  const double r = std::round(value);
+  constexpr double lo = static_cast<double>(std::numeric_limits<Int>::min());
+  constexpr double hi = static_cast<double>(std::numeric_limits<Int>::max());
+  return static_cast<Int>(std::clamp(r, lo, hi));
+}
+
+std::uint16_t low16(std::uint32_t v) { return static_cast<std::uint16_t>(v & 0xFFFFu); }
+std::uint16_t high16(std::uint32_t v) { return static_cast<std::uint16_t>(v >> 16); }
+
+}  // namespace
+
+std::int32_t metres_to_tenth_mm(double metres) { return saturate_round<std::int32_t>(metres * 1e4); }
+double tenth_mm_to_metres(std::int32_t value) { return static_cast<double>(value) * 1e-4; }
+
+std::int16_t degrees_to_hundredths(double degrees) {
+  if (!std::isfinite(degrees)) return 0;
+  double wrapped = std::fmod(degrees, 360.0);
+  if (wrapped > 180.0) wrapped -= 360.0;
+  if (wrapped < -180.0) wrapped += 360.0;
+  return static_cast<std::int16_t>(std::clamp(std::round(wrapped * 100.0), -18000.0, 18000.0));
+}
+double hundredths_to_degrees(std::int16_t value) { return static_cast<double>(value) * 0.01; }
+
+std::uint16_t unit_to_permille(double value) {
+  if (!std::isfinite(value)) return 0;
+  return static_cast<std::uint16_t>(std::clamp(std::round(value * 1000.0), 0.0, 1000.0));
+}
+
+std::uint16_t milliseconds_to_register(double ms) { return saturate_round<std::uint16_t>(ms); }
+
+void put_u32(std::uint16_t* dst, std::uint32_t value, WordOrder order) {
+  if (order == WordOrder::kHighWordFirst) {
+    dst[0] = high16(value);
+    dst[1] = low16(value);
+  } else {
+    dst[0] = low16(value);
+    dst[1] = high16(value);
+  }
+}
+
+std::uint32_t get_u32(const std::uint16_t* src, WordOrder order) {
+  const std::uint32_t first = src[0];
+  const std::uint32_t second = src[1];
+  return order == WordOrder::kHighWordFirst ? (first << 16) | second : (second << 16) | first;
+}
+
+void put_i32(std::uint16_t* dst, std::int32_t value, WordOrder order) {
+  put_u32(dst, static_cast<std::uint32_t>(value), order);
+}
+
+std::int32_t get_i32(const std::uint16_t* src, WordOrder order) {
+  // two's complement reinterpretation without implementation-defined conversion
+  const std::uint32_t u = get_u32(src, order);
+  return u <= 0x7FFFFFFFu ? static_cast<std::int32_t>(u)
+                          : -static_cast<std::int32_t>(~u) - 1;
+}
+
+void encode_status(const StatusRecord& s, WordOrder order, RegisterImage& image) {
+  std::uint16_t* r = image.data();
+  r[kRegStatusWord] = s.status_word;
+  r[kRegErrorCode] = static_cast<std::uint16_t>(s.error);
+  r[kRegErrorDetail] = s.error_detail;
+  r[kRegHeartbeat] = s.heartbeat;
+  r[kRegActiveRecipe] = s.active_recipe;
+  r[kRegAcquisitionId] = s.acquisition_id;
+  r[kRegStatusResultId] = s.result_id;
+  r[kRegLastRequestId] = s.last_request_id;
+  r[kRegInterfaceVersion] = kInterfaceVersion;
+  std::uint16_t format = 0;
+  if (order == WordOrder::kLowWordFirst) format |= kFmtLowWordFirst;
+  if (s.poses_in_camera_frame) format |= kFmtCameraFrame;
+  r[kRegFormatFlags] = format;
+  put_u32(r + kRegTestPattern, kTestPattern, order);
+  r[kRegMissedTriggers] = s.missed_triggers;
+  r[kRegProcessingMs] = milliseconds_to_register(s.processing_ms);
+  r[kRegLatencyMs] = milliseconds_to_register(s.latency_ms);
+  put_u32(r + kRegFramesGrabbed, s.frames_grabbed, order);
+  r[kRegCameraReconnects] = s.camera_reconnects;
+}
+
+void clear_result(RegisterImage& image) {
+  std::fill(image.begin() + kResultStart, image.end(), std::uint16_t{0});
+}
+
+void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
+                   RegisterImage& image) {
+  clear_result(image);
+  std::uint16_t* r = image.data();
+  const auto reported = static_cast<std::uint16_t>(
+      std::min<std::size_t>(result.boxes.size(), kMaxBoxes));
+  r[kRegResultId] = result_id;
+  r[kRegResultRequestId] = result.request_id;
+  r[kRegResultStatus] = static_cast<std::uint16_t>(result.status);
+  r[kRegBoxesFound] = std::max(result.boxes_found, reported);
+  r[kRegBoxesReported] = reported;
+  r[kRegRecipeUsed] = result.recipe;
+  std::uint16_t flags = 0;
+  if (result.ambiguous) flags |= kResAmbiguous;
+  if (result.budget_exhausted) flags |= kResBudgetExhausted;
+  if (result.layer_clipped) flags |= kResLayerClipped;
+  r[kRegResultFlags] = flags;
+  put_i32(r + kRegLayerZ, metres_to_tenth_mm(result.layer_z_m), order);
+  r[kRegCoverage] = unit_to_permille(result.coverage);
+  for (std::uint16_t i = 0; i < reported; ++i) {
+    const BoxRecord& b = result.boxes[i];
+    std::uint16_t* slot = r + kBoxStart + kBoxStride * i;
+    put_i32(slot + 0, metres_to_tenth_mm(b.x_m), order);
+    put_i32(slot + 2, metres_to_tenth_mm(b.y_m), order);
+    put_i32(slot + 4, metres_to_tenth_mm(b.z_m), order);
+    slot[6] = static_cast<std::uint16_t>(degrees_to_hundredths(b.yaw_deg));
+    slot[7] = b.format;
+    slot[8] = unit_to_permille(b.score);
+    slot[9] = b.pick_index;
+  }
+  r[kResultIdCopy] = result_id;
+}
+
+ControlRecord decode_control(const RegisterImage& image) {
+  ControlRecord c;
+  c.control_word = image[kRegControlWord];
+  c.recipe = image[kRegRecipe];
+  c.request_id = image[kRegRequestId];
+  c.plc_heartbeat = image[kRegPlcHeartbeat];
+  return c;
+}
+
+namespace {
+std::int16_t as_i16(std::uint16_t v) {
+  return v <= 0x7FFF ? static_cast<std::int16_t>(v) : static_cast<std::int16_t>(-static_cast<int>(0xFFFF - v) - 1);
+}
+}  // namespace
+
+DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
+  DecodedResult d;
+  const std::uint16_t* r = image.data();
+  d.result_id = r[kRegResultId];
+  d.result_id_copy = r[kResultIdCopy];
+  ResultRecord& rec = d.record;
+  rec.request_id = r[kRegResultRequestId];
+  rec.status = static_cast<ResultStatus>(r[kRegResultStatus]);
+  rec.boxes_found = r[kRegBoxesFound];
+  rec.recipe = r[kRegRecipeUsed];
+  const std::uint16_t flags = r[kRegResultFlags];
+  rec.ambiguous = (flags & kResAmbiguous) != 0;
+  rec.budget_exhausted = (flags & kResBudgetExhausted) != 0;
+  rec.layer_clipped = (flags & kResLayerClipped) != 0;
+  rec.layer_z_m = tenth_mm_to_metres(get_i32(r + kRegLayerZ, order));
+  rec.coverage = r[kRegCoverage] * 1e-3;
+  const std::uint16_t reported = std::min<std::uint16_t>(r[kRegBoxesReported], kMaxBoxes);
+  for (std::uint16_t i = 0; i < reported; ++i) {
+    const std::uint16_t* slot = r + kBoxStart + kBoxStride * i;
+    BoxRecord b;
+    b.x_m = tenth_mm_to_metres(get_i32(slot + 0, order));
+    b.y_m = tenth_mm_to_metres(get_i32(slot + 2, order));
+    b.z_m = tenth_mm_to_metres(get_i32(slot + 4, order));
+    b.yaw_deg = hundredths_to_degrees(as_i16(slot[6]));
+    b.format = slot[7];
+    b.score = slot[8] * 1e-3;
+    b.pick_index = slot[9];
+    rec.boxes.push_back(b);
+  }
+  return d;
+}
+
+StatusRecord decode_status(const RegisterImage& image, WordOrder order) {
+  StatusRecord s;
+  const std::uint16_t* r = image.data();
+  s.status_word = r[kRegStatusWord];
+  s.error = static_cast<ErrorCode>(r[kRegErrorCode]);
+  s.error_detail = r[kRegErrorDetail];
+  s.heartbeat = r[kRegHeartbeat];
+  s.active_recipe = r[kRegActiveRecipe];
+  s.acquisition_id = r[kRegAcquisitionId];
+  s.result_id = r[kRegStatusResultId];
+  s.last_request_id = r[kRegLastRequestId];
+  s.poses_in_camera_frame = (r[kRegFormatFlags] & kFmtCameraFrame) != 0;
+  s.missed_triggers = r[kRegMissedTriggers];
+  s.processing_ms = r[kRegProcessingMs];
+  s.latency_ms = r[kRegLatencyMs];
+  s.frames_grabbed = get_u32(r + kRegFramesGrabbed, order);
+  s.camera_reconnects = r[kRegCameraReconnects];
+  return s;
+}
+
+}  // namespace palletd::modbus

@@ -1,0 +1,19 @@
+// palletctl subcommands. Each lives in cmd_<name>.cpp and adds itself to the app with
+// register_<name>(app); main.cpp calls every register function once. A subcommand writes data to
+// stdout, logs through spdlog (stderr), and reports failure by throwing CLI::RuntimeError(code).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace palletd {
+
+void register_frame_info(CLI::App& app);  // palletctl info STEM...
+void register_watch(CLI::App& app);       // palletctl watch --host H: the status block live
+void register_calibrate(CLI::App& app);   // palletctl calibrate --frame STEM --points FILE
+void register_trigger(CLI::App& app);     // palletctl trigger --host H
+void register_simulate(CLI::App& app);    // palletctl simulate --out DIR -n N (scene simulator)
+
+void register_grab(CLI::App& app);    // palletctl grab --config FILE -n N --out DIR
+void register_record(CLI::App& app);  // palletctl record --config FILE [--out DIR]
+
+}  // namespace palletd

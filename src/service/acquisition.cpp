@@ -1,0 +1,115 @@
+#include "acquisition.hpp"
+
+#include <string>
+
+namespace palletd {
+
+using namespace std::chrono_literals;
+
+Acquisition::Acquisition(std::unique_ptr<CameraSupervisor> camera, StatusCallback on_status)
+    : camera_(std::move(camera)), on_status_(std::move(on_status)) {
+  mark_alive();
+}
+
+Acquisition::~Acquisition() { stop(); }
+
+void Acquisition::start() {
+  if (running_.exchange(true)) return;
+  mark_alive();
+  thread_ = std::thread([this] { run(); });
+}
+
+void Acquisition::stop() {
+  if (!running_.exchange(false)) {
+    if (thread_.joinable()) thread_.join();
+    return;
+  }
+  cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  camera_->shutdown();
+  // Answer a caller still waiting.
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (pending_ && !pending_->answer) pending_->answer = Expected<Frame>(Error{"acquisition stopped"});
+  cv_.notify_all();
+}
+
+Expected<Frame> Acquisition::frame_after(Clock::time_point trigger_time, std::chrono::milliseconds timeout) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (!running_) return Error{"acquisition is not running"};
+  Request request{next_id_++, trigger_time, Clock::now() + timeout, std::nullopt};
+  pending_ = &request;
+  cv_.notify_all();
+  // The acquisition thread answers by the deadline (plus its own grab slice); wait a little past it.
+  cv_.wait_until(lock, request.deadline + 500ms, [&] { return request.answer.has_value() || !running_; });
+  pending_ = nullptr;
+  if (request.answer) return std::move(*request.answer);
+  return Error{"no frame within " + std::to_string(timeout.count()) + " ms (acquisition did not answer)"};
+}
+
+Expected<Frame> Acquisition::acquire(const Request& request) {
+  auto left = [&] {
+    return std::max(1ms, std::chrono::duration_cast<std::chrono::milliseconds>(request.deadline - Clock::now()));
+  };
+  camera_->ensure_streaming();
+  if (camera_->trigger_mode()) {
+    Status triggered = camera_->software_trigger();
+    if (!triggered) {
+      // The camera may just have come back: one more try after bringing it up.
+      camera_->ensure_streaming();
+      triggered = camera_->software_trigger();
+      if (!triggered) return Error{triggered.error()};
+    }
+    return camera_->grab(left());
+  }
+  int completed_after_trigger = 0;
+  while (Clock::now() < request.deadline && running_) {
+    Expected<Frame> frame = camera_->grab(left());
+    mark_alive();
+    if (!frame) return frame;
+    // Completed before or just after the trigger: exposure may predate it.
+    if (++completed_after_trigger < 2) {
+      stale_dropped_.fetch_add(1);
+      continue;
+    }
+    return frame;
+  }
+  return Error{"no frame captured after the trigger within the frame timeout"};
+}
+
+void Acquisition::run() {
+  auto last_status = Clock::now() - 1s;
+  while (running_) {
+    mark_alive();
+    bool have_request = false;
+    Request copy;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      cv_.wait_for(lock, 100ms, [&] { return !running_ || (pending_ && !pending_->answer); });
+      if (!running_) break;
+      if (pending_ && !pending_->answer) {
+        have_request = true;
+        copy = Request{pending_->id, pending_->trigger_time, pending_->deadline, std::nullopt};
+      }
+    }
+    if (have_request) {
+      // Work on a copy: the caller may give up (past its deadline) and its request is gone.
+      Expected<Frame> frame = acquire(copy);
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (pending_ != nullptr && pending_->id == copy.id) {
+        pending_->answer = std::move(frame);
+        cv_.notify_all();
+      }
+    } else if (!camera_->trigger_mode()) {
+      // Free-running: keep the stream drained so the next request gets fresh frames.
+      (void)camera_->grab(100ms);
+    } else {
+      camera_->ensure_streaming();
+    }
+    if (Clock::now() - last_status >= 100ms) {
+      last_status = Clock::now();
+      if (on_status_) on_status_(*camera_);
+    }
+  }
+}
+
+}  // namespace palletd

@@ -1,0 +1,80 @@
+#include "result_record.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace palletd {
+
+modbus::DetectionFailure failure_of(DetectionStatus status) {
+  switch (status) {
+    case DetectionStatus::no_plane: return modbus::DetectionFailure::kNoPlane;
+    case DetectionStatus::no_layer: return modbus::DetectionFailure::kNoLayer;
+    case DetectionStatus::no_layout: return modbus::DetectionFailure::kNoLayout;
+    case DetectionStatus::bad_frame: return modbus::DetectionFailure::kBadFrame;
+    case DetectionStatus::ok: break;
+  }
+  return modbus::DetectionFailure::kUnknown;
+}
+
+namespace {
+
+// Camera frame: the yaw of the long axis seen from the camera, folded to (-90, 90].
+double camera_yaw_deg(const Eigen::Vector3d& long_axis) {
+  double yaw = std::atan2(long_axis.y(), long_axis.x()) * 180.0 / M_PI;
+  while (yaw > 90.0) yaw -= 180.0;
+  while (yaw <= -90.0) yaw += 180.0;
+  return yaw;
+}
+
+// Layer "height": base z of the layer under the boxes when calibrated; else the depth at which
+// the optical axis meets the layer plane [m].
+double layer_z_m(const Detection& detection, bool base_frame) {
+  if (base_frame && !detection.boxes.empty()) {
+    double z = 0.0;
+    for (const auto& b : detection.boxes) z += b.base_position->z();
+    return z / static_cast<double>(detection.boxes.size());
+  }
+  const Plane& p = detection.plane_camera;
+  if (std::abs(p.normal.z()) < 1e-9) return 0.0;
+  return -p.d / p.normal.z();
+}
+
+}  // namespace
+
+modbus::ResultRecord to_result_record(const Detection& detection, bool base_frame) {
+  modbus::ResultRecord r;
+  if (detection.status != DetectionStatus::ok) {
+    r.status = modbus::ResultStatus::kFailed;
+    r.error = modbus::ErrorCode::kDetectionFailed;
+    r.error_detail = static_cast<std::uint16_t>(failure_of(detection.status));
+  } else {
+    r.status = detection.boxes.empty() ? modbus::ResultStatus::kNoBoxes : modbus::ResultStatus::kOk;
+  }
+  r.boxes_found = static_cast<std::uint16_t>(std::min<std::size_t>(detection.boxes.size(), 65535));
+  const std::size_t n = std::min<std::size_t>(detection.boxes.size(), modbus::kMaxBoxes);
+  // Boxes go out in pick order (detect() sorted them; pick_index 0 first).
+  for (std::size_t i = 0; i < n; ++i) {
+    const DetectedBox& b = detection.boxes[i];
+    modbus::BoxRecord out;
+    const bool in_base = base_frame && b.base_position.has_value();
+    const Eigen::Vector3d p = in_base ? *b.base_position : b.center;
+    out.x_m = p.x();
+    out.y_m = p.y();
+    out.z_m = p.z();
+    out.yaw_deg = in_base && b.base_yaw_deg ? *b.base_yaw_deg : camera_yaw_deg(b.long_axis);
+    out.format = static_cast<std::uint16_t>(std::max(0, b.format));
+    out.score = b.score;
+    out.pick_index = static_cast<std::uint16_t>(b.pick_index + 1);
+    r.boxes.push_back(out);
+  }
+  r.ambiguous = detection.ambiguous;
+  r.budget_exhausted = detection.budget_exhausted;
+  r.layer_clipped = detection.clipped_by_image_border;
+  r.layer_z_m = detection.status == DetectionStatus::ok ? layer_z_m(detection, base_frame) : 0.0;
+  r.coverage = detection.coverage;
+  auto total = detection.timing_ms.find("total");
+  r.processing_ms = total != detection.timing_ms.end() ? total->second : 0.0;
+  return r;
+}
+
+}  // namespace palletd

@@ -1,0 +1,313 @@
+#include "palletd/service.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <mutex>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+
+#include "acquisition.hpp"
+#include "palletd/camera.hpp"
+#include "palletd/detection_json.hpp"
+#include "palletd/modbus/server.hpp"
+#include "palletd/overlay.hpp"
+#include "palletd/recorder.hpp"
+#include "result_record.hpp"
+
+namespace palletd {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+modbus::ServerOptions server_options(const ModbusConfig& m, const Config& config) {
+  modbus::ServerOptions o;
+  o.bind_address = m.bind_address;
+  o.port = static_cast<std::uint16_t>(m.port);
+  o.unit_id = static_cast<std::uint8_t>(m.unit_id);
+  o.allow = m.allow;
+  o.read_only = m.read_only;
+  o.max_connections = m.max_connections;
+  o.idle_timeout_s = m.idle_timeout_s;
+  o.handshake.word_order = m.low_word_first ? modbus::WordOrder::kLowWordFirst : modbus::WordOrder::kHighWordFirst;
+  o.handshake.plc_heartbeat_timeout_s = m.plc_heartbeat_timeout_s;
+  o.handshake.initial_recipe = static_cast<std::uint16_t>(config.pipeline.default_recipe);
+  o.log = [](const std::string& line) { spdlog::info("modbus: {}", line); };
+  return o;
+}
+
+const Recipe* find_recipe(const Config& config, int number) {
+  for (const auto& r : config.recipes)
+    if (r.number == number) return &r;
+  return nullptr;
+}
+
+double ms_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+}  // namespace
+
+class Service::Impl {
+ public:
+  explicit Impl(Config config)
+      : config_(std::make_shared<const Config>(std::move(config))),
+        server_(server_options(config_->modbus, *config_)) {}
+
+  ~Impl() { stop(); }
+
+  Status start() {
+    const Config& cfg = *config_;
+    std::unique_ptr<Camera> camera;
+    try {
+      camera = make_camera(cfg.camera);
+    } catch (const std::exception& e) {
+      return Error{std::string("camera: ") + e.what()};
+    }
+    auto supervisor = std::make_unique<CameraSupervisor>(std::move(camera), cfg.camera.reconnect_min_s,
+                                                         cfg.camera.reconnect_max_s);
+    acquisition_ = std::make_unique<Acquisition>(std::move(supervisor),
+                                                 [this](const CameraSupervisor& cam) { publish_status(cam); });
+    if (cfg.recording.enabled) {
+      recorder_ = std::make_unique<FrameRecorder>(RecorderOptions{cfg.recording.directory, cfg.recording.max_bytes});
+    }
+    Status bound = server_.start();
+    if (!bound) return Error{"modbus: " + bound.error()};
+    running_ = true;
+    mark(pipeline_alive_);
+    acquisition_->start();
+    pipeline_ = std::thread([this] { pipeline_main(); });
+    spdlog::info("modbus server listening on {} port {}", cfg.modbus.bind_address, server_.port());
+    return {};
+  }
+
+  void stop() {
+    if (!running_.exchange(false)) return;
+    server_.stop();  // wakes wait_event()
+    if (pipeline_.joinable()) pipeline_.join();
+    if (acquisition_) acquisition_->stop();
+  }
+
+  void reload(const Config& config) {
+    auto next = std::make_shared<Config>(*config_);
+    next->formats = config.formats;
+    next->recipes = config.recipes;
+    next->detection = config.detection;
+    next->T_base_camera = config.T_base_camera;
+    next->pipeline.detection_timeout_ms = config.pipeline.detection_timeout_ms;
+    next->logging = config.logging;
+    std::lock_guard<std::mutex> lock(config_mutex_);
+    config_ = std::move(next);
+  }
+
+  std::shared_ptr<const ResultSnapshot> latest() const {
+    std::lock_guard<std::mutex> lock(latest_mutex_);
+    return latest_;
+  }
+
+  ServiceHealth health() const {
+    ServiceHealth h;
+    const auto now = Clock::now();
+    const auto fresh = [&](Clock::time_point t) { return now - t < 5s; };
+    h.threads_alive = running_ && fresh(load(pipeline_alive_)) && acquisition_ &&
+                      fresh(acquisition_->last_alive()) && fresh(server_.last_alive());
+    if (acquisition_) {
+      const CameraSupervisor& cam = acquisition_->camera();
+      h.camera_ok = cam.camera_ok();
+      h.camera_state = to_string(cam.state());
+      h.camera_id = cam.identity().id();
+      const CameraCounters c = cam.counters();
+      h.frames = c.frames;
+      h.reconnects = c.reconnects;
+    }
+    h.triggers = triggers_.load();
+    h.results = results_.load();
+    h.failures = failures_.load();
+    h.modbus_port = server_.port();
+    h.modbus_connections = server_.stats().open_connections;
+    return h;
+  }
+
+  modbus::RegisterImage registers() const { return server_.registers(); }
+
+ private:
+  static void mark(std::atomic<Clock::duration::rep>& slot) { slot.store(Clock::now().time_since_epoch().count()); }
+  static Clock::time_point load(const std::atomic<Clock::duration::rep>& slot) {
+    return Clock::time_point(Clock::duration(slot.load()));
+  }
+
+  std::shared_ptr<const Config> config() const {
+    std::lock_guard<std::mutex> lock(config_mutex_);
+    return config_;
+  }
+
+  // Acquisition thread: camera state into the status block.
+  void publish_status(const CameraSupervisor& cam) {
+    auto status = std::make_shared<modbus::ServiceStatus>();
+    const CameraCounters c = cam.counters();
+    status->ready = running_.load();
+    status->camera_ok = cam.camera_ok();
+    if (!status->camera_ok && cam.state() != CameraState::closed) {
+      status->error = modbus::ErrorCode::kCameraDisconnected;
+      status->error_detail = static_cast<std::uint16_t>(std::min<std::uint64_t>(c.faults, 65535));
+    }
+    status->acquisition_id = static_cast<std::uint16_t>(c.frames & 0xFFFF);
+    status->frames_grabbed = static_cast<std::uint32_t>(c.frames);
+    status->camera_reconnects = static_cast<std::uint16_t>(std::min<std::uint64_t>(c.reconnects, 65535));
+    status->poses_in_camera_frame = !config()->T_base_camera.has_value();
+    server_.publish_status(std::move(status));
+  }
+
+  void pipeline_main() {
+    while (running_) {
+      mark(pipeline_alive_);
+      try {
+        std::optional<modbus::HandshakeEvent> event = server_.wait_event(200ms);
+        if (!event) continue;
+        if (event->kind == modbus::EventKind::kSaveSnapshot) {
+          snapshot_requested_ = true;
+          continue;
+        }
+        handle_trigger(*event);
+      } catch (const std::exception& e) {
+        // Never let one trigger take the worker down: report and go on.
+        spdlog::error("pipeline: {}", e.what());
+        failures_.fetch_add(1);
+      }
+    }
+  }
+
+  void handle_trigger(const modbus::HandshakeEvent& event) {
+    triggers_.fetch_add(1);
+    const std::shared_ptr<const Config> cfg = config();
+    auto snapshot = std::make_shared<ResultSnapshot>();
+    snapshot->trigger_seq = event.trigger_seq;
+    snapshot->request_id = event.request_id;
+    snapshot->recipe = event.recipe;
+    modbus::ResultRecord record;
+    record.request_id = event.request_id;
+    record.recipe = event.recipe;
+
+    const Recipe* recipe = find_recipe(*cfg, event.recipe);
+    std::shared_ptr<const Frame> frame;
+    if (recipe == nullptr) {
+      fail(record, *snapshot, modbus::ErrorCode::kUnknownRecipe, event.recipe,
+           "recipe " + std::to_string(event.recipe) + " is not configured");
+    } else {
+      Expected<Frame> grabbed = acquisition_->frame_after(
+          event.time, std::chrono::milliseconds(static_cast<long>(cfg->camera.frame_timeout_ms)));
+      if (!grabbed) {
+        const bool camera_ok = acquisition_->camera().camera_ok();
+        fail(record, *snapshot, camera_ok ? modbus::ErrorCode::kFrameTimeout : modbus::ErrorCode::kCameraDisconnected,
+             0, "frame: " + grabbed.error());
+      } else {
+        Frame f = std::move(grabbed).value();
+        if (cfg->T_base_camera) f.T_base_camera = cfg->T_base_camera;
+        frame = std::make_shared<const Frame>(std::move(f));
+        run_detection(*cfg, *recipe, *frame, record, *snapshot);
+      }
+    }
+    const auto done = Clock::now();
+    snapshot->latency_ms = ms_between(event.time, done);
+    snapshot->time = std::chrono::system_clock::now();
+    snapshot->frame = frame;
+    server_.publish_result(std::make_shared<const modbus::ResultRecord>(record));
+    results_.fetch_add(1);
+    {
+      std::lock_guard<std::mutex> lock(latest_mutex_);
+      latest_ = snapshot;
+    }
+    spdlog::info("trigger {} (request {}, recipe {}): {} box(es), {} in {:.1f} ms", event.trigger_seq,
+                 event.request_id, event.recipe, snapshot->detection.boxes.size(),
+                 snapshot->error_text.empty() ? to_string(snapshot->detection.status) : snapshot->error_text,
+                 snapshot->latency_ms);
+    record_if_asked(*cfg, *snapshot);
+  }
+
+  void run_detection(const Config& cfg, const Recipe& recipe, const Frame& frame, modbus::ResultRecord& record,
+                     ResultSnapshot& snapshot) {
+    std::vector<BoxFormat> formats;
+    for (int index : recipe.formats) formats.push_back(cfg.formats[static_cast<std::size_t>(index)]);
+    const auto t0 = Clock::now();
+    Detection detection = detect(frame, formats, cfg.detection, &rays_);
+    const double elapsed_ms = ms_between(t0, Clock::now());
+    const bool base = frame.T_base_camera.has_value();
+    record = to_result_record(detection, base);
+    record.request_id = snapshot.request_id;
+    record.recipe = snapshot.recipe;
+    record.processing_ms = elapsed_ms;
+    if (elapsed_ms > cfg.pipeline.detection_timeout_ms) {
+      fail(record, snapshot, modbus::ErrorCode::kDetectionTimeout,
+           static_cast<std::uint16_t>(std::min(elapsed_ms, 65535.0)),
+           "detection took " + std::to_string(static_cast<int>(elapsed_ms)) + " ms, over the timeout");
+    } else if (detection.status != DetectionStatus::ok) {
+      failures_.fetch_add(1);
+      snapshot.error = modbus::ErrorCode::kDetectionFailed;
+      snapshot.error_text = std::string(to_string(detection.status)) + ": " + detection.message;
+    }
+    snapshot.detection = std::move(detection);
+  }
+
+  void fail(modbus::ResultRecord& record, ResultSnapshot& snapshot, modbus::ErrorCode code, std::uint16_t detail,
+            std::string text) {
+    failures_.fetch_add(1);
+    record.status = modbus::ResultStatus::kFailed;
+    record.error = code;
+    record.error_detail = detail;
+    record.boxes.clear();
+    record.boxes_found = 0;
+    snapshot.error = code;
+    snapshot.error_text = std::move(text);
+    spdlog::warn("trigger failed: {}", snapshot.error_text);
+  }
+
+  void record_if_asked(const Config& cfg, const ResultSnapshot& snapshot) {
+    const bool asked = snapshot_requested_.exchange(false);
+    if (!recorder_ || !snapshot.frame || !(asked || cfg.recording.every_trigger)) return;
+    const std::string json = detection_to_json_line(snapshot.detection, "");
+    std::vector<std::uint8_t> overlay;
+    if (cfg.recording.overlays) overlay = render_overlay_png(*snapshot.frame, snapshot.detection);
+    Expected<std::string> stem = recorder_->record(*snapshot.frame, json, overlay);
+    if (!stem) {
+      spdlog::error("recording: {}", stem.error());
+    } else {
+      spdlog::info("recorded {}", *stem);
+    }
+  }
+
+  mutable std::mutex config_mutex_;
+  std::shared_ptr<const Config> config_;
+  modbus::ModbusServer server_;
+  std::unique_ptr<Acquisition> acquisition_;
+  std::unique_ptr<FrameRecorder> recorder_;  ///< pipeline thread only
+  RayTable rays_;                            ///< pipeline thread only
+  std::thread pipeline_;
+  std::atomic<bool> running_{false};
+  std::atomic<bool> snapshot_requested_{false};
+  std::atomic<Clock::duration::rep> pipeline_alive_{0};
+  std::atomic<std::uint64_t> triggers_{0}, results_{0}, failures_{0};
+  mutable std::mutex latest_mutex_;
+  std::shared_ptr<const ResultSnapshot> latest_;
+};
+
+Service::Service(Config config) : impl_(std::make_unique<Impl>(std::move(config))) {}
+Service::~Service() = default;
+Status Service::start() { return impl_->start(); }
+void Service::stop() { impl_->stop(); }
+void Service::reload(const Config& config) { impl_->reload(config); }
+std::shared_ptr<const ResultSnapshot> Service::latest() const { return impl_->latest(); }
+ServiceHealth Service::health() const { return impl_->health(); }
+modbus::RegisterImage Service::registers() const { return impl_->registers(); }
+
+std::string Service::status_line() const {
+  const ServiceHealth h = health();
+  std::string s = h.threads_alive ? "ready" : "degraded";
+  s += ": " + std::to_string(h.triggers) + " triggers, " + std::to_string(h.failures) + " failed; camera " +
+       h.camera_id + " " + h.camera_state + "; modbus port " + std::to_string(h.modbus_port) + ", " +
+       std::to_string(h.modbus_connections) + " client(s)";
+  return s;
+}
+
+}  // namespace palletd

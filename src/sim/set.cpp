@@ -1,0 +1,111 @@
+// palletd sim: names of the enums and in-memory frame sets.
+#include <algorithm>
+#include <cstdio>
+
+#include "sim_internal.hpp"
+
+namespace palletd::sim {
+
+std::string to_string(PatternFamily pattern) {
+  switch (pattern) {
+    case PatternFamily::Block: return "block";
+    case PatternFamily::Interlock: return "interlock";
+    case PatternFamily::Brick: return "brick";
+    case PatternFamily::Pinwheel: return "pinwheel";
+    case PatternFamily::Chimney: return "chimney";
+    case PatternFamily::Mixed: return "mixed";
+  }
+  return "block";
+}
+
+std::string to_string(RemovalMode mode) {
+  switch (mode) {
+    case RemovalMode::Rows: return "rows";
+    case RemovalMode::Columns: return "columns";
+    case RemovalMode::Corner: return "corner";
+    case RemovalMode::Random: return "random";
+    case RemovalMode::Holes: return "holes";
+    case RemovalMode::Clusters: return "clusters";
+  }
+  return "rows";
+}
+
+std::string to_string(PalletKind pallet) {
+  switch (pallet) {
+    case PalletKind::None: return "none";
+    case PalletKind::Eur1200x800: return "eur";
+    case PalletKind::Industrial1200x1000: return "ind";
+  }
+  return "eur";
+}
+
+Expected<PatternFamily> parse_pattern(const std::string& text) {
+  for (PatternFamily p : {PatternFamily::Block, PatternFamily::Interlock, PatternFamily::Brick, PatternFamily::Pinwheel,
+                          PatternFamily::Chimney, PatternFamily::Mixed})
+    if (to_string(p) == text) return p;
+  if (text == "column") return PatternFamily::Block;
+  if (text == "spiral") return PatternFamily::Pinwheel;
+  return Error{"unknown pattern '" + text + "' (block, interlock, brick, pinwheel, chimney, mixed)"};
+}
+
+Expected<RemovalMode> parse_removal(const std::string& text) {
+  for (RemovalMode m : {RemovalMode::Rows, RemovalMode::Columns, RemovalMode::Corner, RemovalMode::Random,
+                        RemovalMode::Holes, RemovalMode::Clusters})
+    if (to_string(m) == text) return m;
+  return Error{"unknown removal mode '" + text + "' (rows, columns, corner, random, holes, clusters)"};
+}
+
+Expected<PalletKind> parse_pallet(const std::string& text) {
+  if (text == "none") return PalletKind::None;
+  if (text == "eur" || text == "1200x800") return PalletKind::Eur1200x800;
+  if (text == "ind" || text == "1200x1000") return PalletKind::Industrial1200x1000;
+  return Error{"unknown pallet '" + text + "' (eur = 1200x800, ind = 1200x1000, none)"};
+}
+
+std::uint64_t frame_seed(std::uint64_t seed, std::uint64_t index) {
+  return detail::splitmix64(detail::splitmix64(seed) + index);
+}
+
+Expected<std::vector<SimulatedFrame>> generate_set(const SetOptions& options) {
+  const std::vector<PatternFamily> patterns =
+      options.patterns.empty() ? std::vector<PatternFamily>{PatternFamily::Block, PatternFamily::Interlock,
+                                                            PatternFamily::Brick, PatternFamily::Pinwheel,
+                                                            PatternFamily::Chimney, PatternFamily::Mixed}
+                               : options.patterns;
+  const std::vector<std::string> profile_list =
+      options.profiles.empty() ? std::vector<std::string>{"o3d303"} : options.profiles;
+  const std::vector<RemovalMode> removals =
+      options.removals.empty() ? std::vector<RemovalMode>{RemovalMode::Rows, RemovalMode::Columns, RemovalMode::Corner,
+                                                          RemovalMode::Random, RemovalMode::Holes, RemovalMode::Clusters}
+                               : options.removals;
+  std::vector<SensorProfile> profiles;
+  for (const std::string& name : profile_list) {
+    auto p = profile_by_name(name);
+    if (!p) return Error{p.error()};
+    profiles.push_back(*p);
+  }
+  std::vector<SimulatedFrame> frames;
+  frames.reserve(static_cast<std::size_t>(std::max(0, options.count)));
+  for (int i = 0; i < options.count; ++i) {
+    const auto index = static_cast<std::size_t>(i);
+    const std::uint64_t seed = frame_seed(options.seed, index);
+    detail::Rng rng(seed, 0x5E7);
+    ScenarioOptions scenario = options.scenario;
+    scenario.pattern = patterns[index % patterns.size()];
+    scenario.fill = rng.uniform(options.fill_min, options.fill_max);
+    scenario.removal = removals[rng.index(removals.size())];
+    const SensorProfile& profile = profiles[index % profiles.size()];
+    auto scene = make_scene(scenario, profile, seed);
+    if (!scene) return Error{scene.error()};
+    SimulatedFrame frame = render(*scene, profile, seed, options.render);
+    char name[200];
+    std::snprintf(name, sizeof name, "%04d_%s_%s_%s", i, to_string(scenario.pattern).c_str(),
+                  scene->recipe.front().name.c_str(), profile.name.c_str());
+    frame.name = name;
+    frame.frame.sequence = index;
+    frames.push_back(std::move(frame));
+  }
+  return frames;
+}
+
+}  // namespace palletd::sim

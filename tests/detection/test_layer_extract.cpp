@@ -1,0 +1,290 @@
+// extract_layer() end to end on synthetic frames: accuracy, holes, clusters, bad input.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "palletd/layer.hpp"
+#include "palletd/layer_debug.hpp"
+#include "synthetic_scene.hpp"
+
+using namespace palletd;
+using namespace palletd::testing;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kBoxArea = 0.315 * 0.232;
+
+LayerResult run(const SynthFrame& f, LayerTrace* trace = nullptr, LayerParams lp = {}) {
+  return extract_layer(f.frame, f.cloud, PlaneParams{}, lp, ContourParams{}, 0.5 * kBoxArea, trace);
+}
+
+double normal_error_deg(const Plane& a, const Plane& b) {
+  return std::acos(std::clamp(a.normal.dot(b.normal), -1.0, 1.0)) * 180.0 / kPi;
+}
+
+double height_error_m(const LayerResult& r, const Plane& truth) {
+  return std::abs(truth.signed_distance(r.T_camera_layer.translation()));
+}
+
+}  // namespace
+
+TEST_CASE("full layer on a lower layer: plane and outline match the truth") {
+  const SynthScene scene = grid_layer(3, 3, 0.0, 1.0, true);
+  for (const double tilt : {0.0, 15.0, 30.0}) {
+    SynthCamera cam;
+    cam.tilt_deg = tilt;
+    cam.tilt_azimuth_deg = 30.0;
+    cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+    const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+    const LayerResult r = run(f);
+    INFO("tilt " << tilt << " reason " << r.reason);
+    REQUIRE(r.status == DetectionStatus::ok);
+    CHECK(normal_error_deg(r.plane_camera, f.top_plane_camera) < 0.5);
+    CHECK(height_error_m(r, f.top_plane_camera) < 0.003);
+    REQUIRE(r.polygons.size() == 1);
+    const double iou = polygon_iou(r.polygons, truth_in_layer(scene, f, r.T_camera_layer));
+    CHECK(iou > 0.97);
+    CHECK(signed_area(r.polygons[0].outer) > 0.0);
+    CHECK_FALSE(r.diagnostics.touches_image_border);
+  }
+}
+
+TEST_CASE("a few boxes on a full lower layer: the top is the boxes, not the dominant plane") {
+  SynthScene scene = grid_layer(3, 3, 0.004, 1.0, true);
+  // Keep two boxes of the top layer; the lower layer below dominates the image.
+  SynthScene few;
+  few.boxes.push_back(scene.boxes[0]);
+  few.boxes.push_back(scene.boxes[1]);
+  few.boxes.push_back(scene.boxes[9]);
+  few.top = {1, 2};
+  few.top_z_m = 1.0;
+  SynthCamera cam;
+  cam.tilt_deg = 20.0;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthFrame f = render_synthetic(few, cam, SynthNoise{});
+  const LayerResult r = run(f);
+  INFO(r.reason);
+  REQUIRE(r.status == DetectionStatus::ok);
+  CHECK(height_error_m(r, f.top_plane_camera) < 0.003);
+  CHECK(r.polygons.size() == 2);  // two boxes far apart: two clusters
+  CHECK(polygon_iou(r.polygons, truth_in_layer(few, f, r.T_camera_layer)) > 0.95);
+}
+
+TEST_CASE("a single box gives four near-orthogonal corners close to the truth") {
+  SynthScene s;
+  SynthBox b;
+  b.yaw_rad = 0.4;
+  b.top_z_m = 1.0;
+  s.boxes.push_back(b);
+  s.top = {0};
+  s.top_z_m = 1.0;
+  SynthCamera cam;
+  cam.tilt_deg = 25.0;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthFrame f = render_synthetic(s, cam, SynthNoise{});
+  const LayerResult r = run(f);
+  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.polygons.size() == 1);
+  const Ring2d& ring = r.polygons[0].outer;
+  REQUIRE(ring.size() == 4);
+  const auto truth = truth_in_layer(s, f, r.T_camera_layer)[0];
+  for (const auto& c : ring) {
+    double best = 1e9;
+    for (const auto& t : truth) best = std::min(best, (c - t).norm());
+    CHECK(best < 0.005);
+  }
+  for (std::size_t k = 0; k < 4; ++k) {
+    const Eigen::Vector2d e0 = (ring[(k + 1) % 4] - ring[k]).normalized();
+    const Eigen::Vector2d e1 = (ring[(k + 2) % 4] - ring[(k + 1) % 4]).normalized();
+    CHECK(std::abs(e0.dot(e1)) < std::sin(1.0 * kPi / 180.0));
+  }
+}
+
+TEST_CASE("a hole 1.5 pixel pitches wide is found; clusters 30 mm apart stay apart") {
+  // Seen from above: in oblique views the side walls inside a narrow gap lie within the band and
+  // bridge it (the benchmark's sweep shows the tilted case).
+  SynthCamera cam;
+  cam.tilt_deg = 0.0;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  // Largest pixel footprint on the layer (tilt stretches it by 1 / cos(tilt)).
+  const double pitch_m = cam.distance_m / cam.fx / std::cos(cam.tilt_deg * kPi / 180.0);
+  // A ring of 8 boxes around a centre box shrunk so that a gap of 1.5 pitches surrounds it: the
+  // gap is a hole of the outer component.
+  SynthScene ring = grid_layer(3, 3, 0.0, 1.0, true);
+  ring.boxes[5].long_m -= 2 * 1.5 * pitch_m;
+  ring.boxes[5].short_m -= 2 * 1.5 * pitch_m;
+  const SynthFrame fr = render_synthetic(ring, cam, SynthNoise{});
+  const LayerResult rr = run(fr);
+  REQUIRE(rr.status == DetectionStatus::ok);
+  std::size_t holes = 0;
+  for (const auto& p : rr.polygons) holes += p.holes.size();
+  CHECK(holes >= 1);
+  CHECK(rr.polygons.size() == 2);  // the ring with its hole, and the centre box inside it
+  for (const auto& p : rr.polygons)
+    for (const auto& h : p.holes) CHECK(signed_area(h) < 0.0);
+  CHECK(polygon_iou(rr.polygons, truth_in_layer(ring, fr, rr.T_camera_layer)) > 0.95);
+
+  // Two boxes 30 mm apart, seen at a 30 deg tilt: two components.
+  SynthCamera tilted = cam;
+  tilted.tilt_deg = 30.0;
+  tilted.tilt_azimuth_deg = 10.0;
+  const SynthScene two = grid_layer(2, 1, 0.030, 1.0, true);
+  const SynthFrame ft = render_synthetic(two, tilted, SynthNoise{});
+  const LayerResult rt = run(ft);
+  REQUIRE(rt.status == DetectionStatus::ok);
+  CHECK(rt.polygons.size() == 2);
+}
+
+TEST_CASE("dropouts inside faces make no border; flying pixels do not bend the outline") {
+  SynthScene s;
+  SynthBox b;
+  b.long_m = 0.6;
+  b.short_m = 0.4;
+  b.top_z_m = 1.0;
+  s.boxes.push_back(b);
+  s.top = {0};
+  s.top_z_m = 1.0;
+  SynthCamera cam;
+  cam.tilt_deg = 10.0;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  SynthNoise noise;
+  noise.dropout = 0.03;
+  noise.flying = 0.8;
+  const SynthFrame f = render_synthetic(s, cam, noise);
+  LayerTrace trace;
+  const LayerResult r = run(f, &trace);
+  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.polygons.size() == 1);
+  for (const auto& h : r.polygons[0].holes) {
+    INFO("hole of " << h.size() << " vertices, area " << signed_area(h) << " m^2 at " << h[0].transpose());
+    CHECK(false);
+  }
+  CHECK(r.polygons[0].outer.size() == 4);
+  CHECK(r.diagnostics.filled_dropouts > 0);
+  // Border pixels: about the outline's length in pixels (no false borders inside).
+  const double perimeter_px = 2.0 * (0.6 + 0.4) / (cam.distance_m / cam.fx);
+  CHECK(static_cast<double>(trace.border_pixels.size()) < 1.6 * perimeter_px);
+  CHECK(polygon_iou(r.polygons, truth_in_layer(s, f, r.T_camera_layer)) > 0.98);
+}
+
+TEST_CASE("same frame, same result") {
+  const SynthScene scene = grid_layer(2, 2, 0.0, 1.0, true);
+  SynthCamera cam;
+  cam.tilt_deg = 12.0;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+  const LayerResult a = run(f), b = run(f);
+  REQUIRE(a.status == DetectionStatus::ok);
+  REQUIRE(a.polygons.size() == b.polygons.size());
+  CHECK(a.plane_camera.d == b.plane_camera.d);
+  for (std::size_t i = 0; i < a.polygons.size(); ++i) {
+    REQUIRE(a.polygons[i].outer.size() == b.polygons[i].outer.size());
+    for (std::size_t k = 0; k < a.polygons[i].outer.size(); ++k) CHECK(a.polygons[i].outer[k] == b.polygons[i].outer[k]);
+  }
+}
+
+TEST_CASE("bad input ends in a clear status, never a crash") {
+  const SynthScene scene = grid_layer(2, 2, 0.0, 1.0, true);
+  SynthCamera cam;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+
+  SECTION("every pixel invalid") {
+    SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+    std::fill(f.frame.depth.begin(), f.frame.depth.end(), 0);
+    rebuild_cloud(f);
+    const LayerResult r = run(f);
+    CHECK(r.status == DetectionStatus::bad_frame);
+    CHECK_FALSE(r.reason.empty());
+  }
+  SECTION("NaN and absurd depths") {
+    SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+    for (std::size_t i = 0; i < f.cloud.points.size(); ++i) {
+      if (i % 3 == 0) f.cloud.points[i] = Eigen::Vector3f(std::nanf(""), 0.0F, 1.0F);
+      else f.cloud.points[i] *= 1000.0F;  // kilometres away
+    }
+    const LayerResult r = run(f);
+    CHECK(r.status == DetectionStatus::bad_frame);
+    CHECK_FALSE(r.reason.empty());
+  }
+  SECTION("cloud and frame disagree") {
+    SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+    f.cloud.points.resize(10);
+    CHECK(run(f).status == DetectionStatus::bad_frame);
+  }
+  SECTION("no plane facing the camera") {
+    // A wall seen edge-on: the floor and boxes are gone, only a plane tilted 60 deg remains.
+    SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+    for (int v = 0; v < f.cloud.height; ++v)
+      for (int u = 0; u < f.cloud.width; ++u) {
+        const double x = (u - f.frame.intrinsics.cx) / f.frame.intrinsics.fx;
+        const double z = 2.0 / (1.0 + 1.7 * x);  // z = 2 - 1.7 X: normal 60 deg off the axis
+        const std::size_t i = static_cast<std::size_t>(v * f.cloud.width + u);
+        f.cloud.points[i] = z > 0.2 && z < 10.0 ? Eigen::Vector3f(static_cast<float>(x * z), static_cast<float>((v - f.frame.intrinsics.cy) / f.frame.intrinsics.fy * z), static_cast<float>(z))
+                                                : Eigen::Vector3f(std::nanf(""), std::nanf(""), std::nanf(""));
+      }
+    const LayerResult r = run(f);
+    CHECK(r.status == DetectionStatus::no_plane);
+    CHECK_FALSE(r.reason.empty());
+  }
+  SECTION("a plane with too few points") {
+    // One small box far away on no floor: its top is below the minimum plane area.
+    SynthScene tiny;
+    SynthBox b;
+    b.long_m = 0.08;
+    b.short_m = 0.08;
+    b.top_z_m = 1.0;
+    tiny.boxes.push_back(b);
+    tiny.top = {0};
+    tiny.top_z_m = 1.0;
+    tiny.floor = false;
+    const SynthFrame f = render_synthetic(tiny, cam, SynthNoise{});
+    const LayerResult r = run(f);
+    CHECK(r.status != DetectionStatus::ok);
+    CHECK_FALSE(r.reason.empty());
+  }
+  SECTION("layer touching the image border") {
+    const SynthScene big = grid_layer(3, 3, 0.0, 1.0, true);
+    SynthCamera close = cam;
+    close.distance_m = 0.8;  // the 3x3 layer (0.95 x 0.7 m) overfills the view
+    const SynthFrame f = render_synthetic(big, close, SynthNoise{});
+    const LayerResult r = run(f);
+    REQUIRE(r.status == DetectionStatus::ok);
+    CHECK(r.diagnostics.touches_image_border);
+    CHECK_FALSE(r.reason.empty());
+    LayerParams strict;
+    strict.reject_clipped = true;
+    const LayerResult s = run(f, nullptr, strict);
+    CHECK(s.status == DetectionStatus::no_layer);
+    CHECK_FALSE(s.reason.empty());
+  }
+  SECTION("components smaller than the minimum are dropped") {
+    SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+    const LayerResult r = extract_layer(f.frame, f.cloud, PlaneParams{}, LayerParams{}, ContourParams{}, 10.0);
+    CHECK(r.status == DetectionStatus::no_layer);
+    CHECK(r.diagnostics.dropped_components >= 1);
+  }
+}
+
+TEST_CASE("debug pictures: one per stage, frame sized, with something drawn") {
+  const SynthScene scene = grid_layer(2, 2, 0.0, 1.0, true);
+  SynthCamera cam;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+  LayerTrace trace;
+  const LayerResult r = run(f, &trace);
+  REQUIRE(r.status == DetectionStatus::ok);
+  const auto images = render_layer_debug_images(f.frame, r, trace);
+  REQUIRE(images.size() == 4);
+  CHECK(images[0].first == "layer_mask");
+  CHECK(images[3].first == "rings");
+  CHECK_FALSE(trace.crust_edges.empty());
+  for (const auto& [name, img] : images) {
+    CHECK(img.type() == CV_8UC3);
+    CHECK(img.cols == f.frame.intrinsics.width);
+    CHECK(img.rows == f.frame.intrinsics.height);
+  }
+  // The rings picture differs from the plain depth picture of an empty trace.
+  const auto plain = render_layer_debug_images(f.frame, r, LayerTrace{});
+  CHECK(cv::norm(images[1].second, plain[1].second, cv::NORM_L1) > 0.0);
+}

@@ -1,0 +1,127 @@
+// The layer stages alone.
+#include <catch2/catch.hpp>
+
+#include "layer_stages.hpp"
+#include "synthetic_scene.hpp"
+
+using namespace palletd;
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+
+using namespace palletd::testing;
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+
+/// Points along a w x h rectangle's outline every `step` [m], CCW from the origin corner.
+std::vector<Eigen::Vector2d> rectangle_outline(double w, double h, double step) {
+  std::vector<Eigen::Vector2d> pts;
+  for (double x = 0; x < w; x += step) pts.emplace_back(x, 0);
+  for (double y = 0; y < h; y += step) pts.emplace_back(w, y);
+  for (double x = w; x > 0; x -= step) pts.emplace_back(x, h);
+  for (double y = h; y > 0; y -= step) pts.emplace_back(0, y);
+  return pts;
+}
+}  // namespace
+
+TEST_CASE("layer frame: orthonormal, z along the normal, origin on the plane") {
+  Plane plane;
+  plane.normal = Eigen::Vector3d(0.2, -0.3, -1.0).normalized();
+  plane.d = 1.7;
+  const Eigen::Isometry3d T = layer::layer_frame(plane, Eigen::Vector3d(0.1, 0.2, 1.5));
+  CHECK((T.linear().transpose() * T.linear() - Eigen::Matrix3d::Identity()).norm() < 1e-12);
+  CHECK(T.linear().determinant() == Approx(1.0));
+  CHECK((T.linear().col(2) - plane.normal).norm() < 1e-12);
+  CHECK(std::abs(plane.signed_distance(T.translation())) < 1e-12);
+  // x: the camera x axis projected onto the plane.
+  CHECK(std::abs(T.linear().col(0).dot(plane.normal.cross(Eigen::Vector3d::UnitX()))) < 1e-12);
+  CHECK(T.linear().col(0).x() > 0.9);
+}
+
+TEST_CASE("border of a mask: pixels with an 8-neighbour off the mask, image edge counts as off") {
+  cv::Mat mask(20, 30, CV_8U, cv::Scalar(0));
+  mask(cv::Rect(5, 5, 10, 8)).setTo(255);
+  mask(cv::Rect(0, 15, 4, 5)).setTo(255);  // touches the image border
+  const cv::Mat border = layer::border_of(mask);
+  CHECK(cv::countNonZero(border) == 2 * (10 + 8) - 4 + 2 * (4 + 5) - 4);
+  CHECK(border.at<std::uint8_t>(9, 9) == 0);    // interior
+  CHECK(border.at<std::uint8_t>(5, 9) == 255);  // top row of the rectangle
+  CHECK(border.at<std::uint8_t>(19, 0) == 255); // on the image edge
+}
+
+TEST_CASE("crust: shuffled border points come back as one ring around the outline") {
+  const std::vector<Eigen::Vector2d> outline = rectangle_outline(0.3, 0.2, 0.003);
+  std::vector<int> order(outline.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::mt19937 rng(3);
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<Eigen::Vector2d> pts;
+  std::vector<int> chain;
+  std::normal_distribution<double> noise(0.0, 0.0005);
+  for (const int i : order) {
+    pts.push_back(outline[static_cast<std::size_t>(i)] + Eigen::Vector2d(noise(rng), noise(rng)));
+    chain.push_back(i);
+  }
+  std::vector<std::pair<int, int>> edges;
+  const std::vector<int> ring = layer::crust_ring(pts, chain, 0.008, &edges);
+  CHECK_FALSE(edges.empty());
+  REQUIRE(ring.size() >= outline.size() / 2);  // shortest paths may skip zig-zag points
+  Ring2d poly;
+  for (const int i : ring) poly.push_back(pts[static_cast<std::size_t>(i)]);
+  CHECK(std::abs(signed_area(poly)) == Approx(0.3 * 0.2).epsilon(0.03));
+  // Consecutive ring points are neighbours on the outline (no jumps across the rectangle).
+  for (std::size_t k = 0; k < poly.size(); ++k) CHECK((poly[k] - poly[(k + 1) % poly.size()]).norm() < 0.008);
+}
+
+TEST_CASE("simplify: a noisy rotated rectangle becomes four corners within a millimetre") {
+  const double yaw = 0.3;
+  const Eigen::Rotation2Dd R(yaw);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.0015);
+  std::vector<Eigen::Vector2d> ring, samples;
+  for (const auto& p : rectangle_outline(0.4, 0.3, 0.003)) {
+    ring.push_back(R * p + Eigen::Vector2d(noise(rng), noise(rng)));
+    samples.push_back(R * p + Eigen::Vector2d(noise(rng), noise(rng)));
+  }
+  const Ring2d poly = layer::simplify_ring(ring, samples, 0.003, ContourParams{});
+  std::string corners;
+  for (const auto& c : poly) corners += "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ") ";
+  INFO(corners);
+  REQUIRE(poly.size() == 4);
+  const std::vector<Eigen::Vector2d> truth{R * Eigen::Vector2d(0, 0), R * Eigen::Vector2d(0.4, 0),
+                                           R * Eigen::Vector2d(0.4, 0.3), R * Eigen::Vector2d(0, 0.3)};
+  for (const auto& t : truth) {
+    double best = 1e9;
+    for (const auto& c : poly) best = std::min(best, (c - t).norm());
+    CHECK(best < 0.001);
+  }
+  // Snapped to one grid: corners orthogonal.
+  for (std::size_t k = 0; k < 4; ++k) {
+    const Eigen::Vector2d e0 = (poly[(k + 1) % 4] - poly[k]).normalized();
+    const Eigen::Vector2d e1 = (poly[(k + 2) % 4] - poly[(k + 1) % 4]).normalized();
+    CHECK(std::abs(e0.dot(e1)) < std::sin(0.1 * kPi / 180.0));
+  }
+}
+
+TEST_CASE("top plane: nearest large plane wins, a small stray in front does not") {
+  SynthScene s = grid_layer(3, 3, 0.0, 1.0, true);
+  SynthBox stray;  // a 6 x 6 cm thing 30 cm above the layer
+  stray.long_m = 0.06;
+  stray.short_m = 0.06;
+  stray.center = Eigen::Vector2d(0.1, 0.05);
+  stray.bottom_z_m = 1.25;
+  stray.top_z_m = 1.3;
+  s.boxes.push_back(stray);
+  SynthCamera cam;
+  cam.tilt_deg = 30.0;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthFrame f = render_synthetic(s, cam, SynthNoise{});
+  const layer::TopPlane top = layer::find_top_plane(f.cloud, f.frame.intrinsics, PlaneParams{});
+  REQUIRE(top.status == DetectionStatus::ok);
+  CHECK(std::abs(top.plane.d - f.top_plane_camera.d) < 0.003);
+  CHECK(top.plane.normal.dot(f.top_plane_camera.normal) > std::cos(0.5 * kPi / 180.0));
+  CHECK(top.sigma_m < 0.004);
+}

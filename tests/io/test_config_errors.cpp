@@ -1,0 +1,246 @@
+// Configuration errors: each kind with file:line:column and the key path.
+#include <catch2/catch.hpp>
+
+#include "palletd/config.hpp"
+#include "png_util.hpp"
+
+using namespace palletd;
+using Catch::Contains;
+using Catch::StartsWith;
+
+namespace {
+
+struct Failure {
+  int line = -1;
+  int column = -1;
+  std::string key;
+  std::string what;
+};
+
+Failure failure_of(const std::string& text) {
+  try {
+    (void)parse_config(text, "bad.yaml");
+  } catch (const ConfigError& e) {
+    return {e.line(), e.column(), e.key_path(), e.what()};
+  }
+  FAIL("no ConfigError for:\n" << text);
+  return {};
+}
+
+}  // namespace
+
+TEST_CASE("config error: YAML syntax") {
+  const Failure f = failure_of("modbus:\n  port: 502\n  allow: [10.0.0.1\n");
+  CHECK(f.line >= 3);
+  CHECK_THAT(f.what, Contains("bad.yaml:") && Contains("YAML syntax error"));
+  const Failure tab = failure_of("modbus:\n  port: 502\n bad_indent: 1\n");
+  CHECK(tab.line == 3);
+}
+
+TEST_CASE("config error: unknown keys, top level and nested") {
+  const Failure top = failure_of("camera:\n  driver: replay\nmodbuss:\n  port: 1\n");
+  CHECK(top.line == 3);
+  CHECK(top.column == 1);
+  CHECK(top.key == "modbuss");
+  CHECK_THAT(top.what, StartsWith("bad.yaml:3:1: modbuss: unknown key"));
+
+  const Failure nested = failure_of("modbus:\n  port: 1502\n  prot: 1\n");
+  CHECK(nested.line == 3);
+  CHECK(nested.column == 3);
+  CHECK(nested.key == "modbus.prot");
+
+  const Failure deep = failure_of("detection:\n  plane:\n    max_tilt: 10\n");
+  CHECK(deep.line == 3);
+  CHECK(deep.column == 5);
+  CHECK(deep.key == "detection.plane.max_tilt");
+  CHECK_THAT(deep.what, Contains("max_tilt_deg"));  // lists the known keys
+
+  const Failure in_list = failure_of("formats:\n  - {name: A, long_mm: 3, short_mm: 2, height_mm: 1}\n");
+  CHECK(in_list.line == 2);
+  CHECK(in_list.key == "formats[0].height_mm");
+}
+
+TEST_CASE("config error: duplicate key") {
+  const Failure f = failure_of("modbus:\n  port: 1502\n  port: 1503\n");
+  CHECK(f.line == 3);
+  CHECK(f.key == "modbus.port");
+  CHECK_THAT(f.what, Contains("duplicate key"));
+}
+
+TEST_CASE("config error: wrong types") {
+  const Failure number = failure_of("modbus:\n  port: five\n");
+  CHECK(number.line == 2);
+  CHECK(number.column == 9);
+  CHECK(number.key == "modbus.port");
+  CHECK_THAT(number.what, Contains("bad.yaml:2:9: modbus.port: expected an integer, got 'five'"));
+
+  const Failure fractional = failure_of("modbus:\n  port: 502.5\n");
+  CHECK(fractional.key == "modbus.port");
+  CHECK_THAT(fractional.what, Contains("expected an integer"));
+
+  const Failure quoted = failure_of("camera:\n  frame_timeout_ms: \"100\"\n");
+  CHECK(quoted.line == 2);
+  CHECK_THAT(quoted.what, Contains("expected a number, got the string '100'"));
+
+  const Failure flag = failure_of("recording:\n  enabled: maybe\n");
+  CHECK(flag.line == 2);
+  CHECK(flag.key == "recording.enabled");
+  CHECK_THAT(flag.what, Contains("expected true or false"));
+
+  const Failure section = failure_of("logging: 5\n");
+  CHECK(section.line == 1);
+  CHECK(section.key == "logging");
+  CHECK_THAT(section.what, Contains("expected a mapping"));
+
+  const Failure list = failure_of("modbus:\n  allow: 10.0.0.1\n");
+  CHECK(list.line == 2);
+  CHECK_THAT(list.what, Contains("expected a list"));
+
+  const Failure string = failure_of("camera:\n  driver: [replay]\n");
+  CHECK(string.line == 2);
+  CHECK_THAT(string.what, Contains("expected a string, got a list"));
+
+  const Failure nothing = failure_of("modbus:\n  port:\n  unit_id: 1\n");
+  CHECK(nothing.key == "modbus.port");
+  CHECK_THAT(nothing.what, Contains("got nothing"));
+
+  const Failure top = failure_of("- a\n- b\n");
+  CHECK(top.line == 1);
+  CHECK_THAT(top.what, Contains("top level must be a mapping"));
+}
+
+TEST_CASE("config error: out-of-range values") {
+  const Failure port = failure_of("\nmodbus:\n  port: 70000\n");
+  CHECK(port.line == 3);
+  CHECK(port.key == "modbus.port");
+  CHECK_THAT(port.what, Contains("between 1 and 65535"));
+
+  const Failure tilt = failure_of("detection:\n  plane: {max_tilt_deg: 95}\n");
+  CHECK(tilt.line == 2);
+  CHECK(tilt.key == "detection.plane.max_tilt_deg");
+
+  const Failure positive = failure_of("detection:\n  plane:\n    ransac_distance_m: 0\n");
+  CHECK(positive.line == 3);
+  CHECK_THAT(positive.what, Contains("> 0"));
+
+  const Failure infinite = failure_of("camera:\n  frame_timeout_ms: .inf\n");
+  CHECK(infinite.line == 2);
+  CHECK_THAT(infinite.what, Contains("finite"));
+
+  const Failure word = failure_of("detection:\n  pick_order: random\n");
+  CHECK(word.line == 2);
+  CHECK(word.key == "detection.pick_order");
+  CHECK_THAT(word.what, Contains("far_corner_first") && Contains("'random'"));
+
+  const Failure driver = failure_of("camera:\n  driver: usb\n");
+  CHECK(driver.line == 2);
+  CHECK_THAT(driver.what, Contains("replay, aravis, openni2"));
+
+  const Failure reconnect = failure_of("camera:\n  reconnect_min_s: 5\n  reconnect_max_s: 1\n");
+  CHECK(reconnect.line == 3);
+  CHECK(reconnect.key == "camera.reconnect_max_s");
+}
+
+TEST_CASE("config error: addresses") {
+  const Failure bind = failure_of("modbus:\n  bind_address: cell-network\n");
+  CHECK(bind.line == 2);
+  CHECK(bind.key == "modbus.bind_address");
+  CHECK_THAT(bind.what, Contains("not an IP address"));
+
+  const Failure prefix = failure_of("modbus:\n  allow:\n    - 10.0.0.0/8\n    - 10.1.0.0/33\n");
+  CHECK(prefix.line == 4);
+  CHECK(prefix.key == "modbus.allow[1]");
+}
+
+TEST_CASE("config error: box formats") {
+  const Failure missing = failure_of("formats:\n  - {name: A, long_mm: 300}\n");
+  CHECK(missing.line == 2);
+  CHECK(missing.key == "formats[0]");
+  CHECK_THAT(missing.what, Contains("missing key 'short_mm'"));
+
+  const Failure swapped = failure_of("formats:\n  - name: A\n    long_mm: 200\n    short_mm: 300\n");
+  CHECK(swapped.line == 4);
+  CHECK(swapped.key == "formats[0].short_mm");
+  CHECK_THAT(swapped.what, Contains("long side first"));
+
+  const Failure zero = failure_of("formats:\n  - {name: A, long_mm: 300, short_mm: 0}\n");
+  CHECK(zero.key == "formats[0].short_mm");
+
+  const Failure dup = failure_of("formats:\n  - {name: A, long_mm: 3, short_mm: 2}\n  - {name: A, long_mm: 4, short_mm: 2}\n");
+  CHECK(dup.line == 3);
+  CHECK(dup.key == "formats[1].name");
+  CHECK_THAT(dup.what, Contains("already defined by formats[0]"));
+}
+
+TEST_CASE("config error: recipes") {
+  const std::string formats = "formats:\n  - {name: A, long_mm: 300, short_mm: 200}\n";
+  const Failure unknown = failure_of(formats + "recipes:\n  - {number: 1, formats: [A, B]}\n");
+  CHECK(unknown.line == 4);
+  CHECK(unknown.key == "recipes[0].formats[1]");
+  CHECK_THAT(unknown.what, Contains("unknown format 'B'"));
+
+  const Failure dup = failure_of(formats + "recipes:\n  - {number: 1, formats: [A]}\n  - {number: 1, formats: [A]}\n");
+  CHECK(dup.line == 5);
+  CHECK(dup.key == "recipes[1].number");
+
+  const Failure empty = failure_of(formats + "recipes:\n  - {number: 2, formats: []}\n");
+  CHECK(empty.line == 4);
+  CHECK_THAT(empty.what, Contains("at least one format"));
+
+  const Failure number = failure_of(formats + "recipes:\n  - {number: 0, formats: [A]}\n");
+  CHECK(number.key == "recipes[0].number");
+
+  const Failure default_recipe =
+      failure_of(formats + "recipes:\n  - {number: 2, formats: [A]}\npipeline:\n  default_recipe: 3\n");
+  CHECK(default_recipe.line == 6);
+  CHECK(default_recipe.key == "pipeline.default_recipe");
+}
+
+TEST_CASE("config error: camera_to_base and intrinsics") {
+  const Failure length = failure_of("camera_to_base: [1, 0, 0, 0]\n");
+  CHECK(length.line == 1);
+  CHECK(length.key == "camera_to_base");
+  CHECK_THAT(length.what, Contains("16 numbers"));
+
+  const Failure rigid = failure_of("camera_to_base: [1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 2, 0,  0, 0, 0, 1]\n");
+  CHECK_THAT(rigid.what, Contains("not a rigid transform"));
+
+  const Failure mirrored = failure_of("\ncamera_to_base: [1, 0, 0, 0,  0, 1, 0, 0,  0, 0, -1, 0,  0, 0, 0, 1]\n");
+  CHECK(mirrored.line == 2);
+  CHECK_THAT(mirrored.what, Contains("determinant +1"));
+
+  const Failure entry = failure_of("camera_to_base: [1, 0, 0, 0,  0, 1, 0, x,  0, 0, 1, 0,  0, 0, 0, 1]\n");
+  CHECK(entry.key == "camera_to_base[7]");
+  CHECK(entry.column == 40);
+
+  const Failure fx = failure_of("camera:\n  intrinsics:\n    {width: 64, height: 48, fx: 0, fy: 50, cx: 32, cy: 24}\n");
+  CHECK(fx.line == 3);
+  CHECK(fx.key == "camera.intrinsics.fx");
+  CHECK_THAT(fx.what, Contains("focal length"));
+
+  const Failure cy = failure_of("camera:\n  intrinsics: {width: 64, height: 48, fx: 50, fy: 50, cx: 32}\n");
+  CHECK(cy.key == "camera.intrinsics");
+  CHECK_THAT(cy.what, Contains("missing key 'cy'"));
+}
+
+TEST_CASE("config error: a missing file names the file") {
+  palletd::test::TempDir dir;
+  try {
+    (void)load_config(dir.file("missing.yaml"));
+    FAIL("no error");
+  } catch (const ConfigError& e) {
+    CHECK(e.file() == dir.file("missing.yaml"));
+    CHECK(e.line() == 0);
+    CHECK_THAT(e.what(), Contains("missing.yaml") && Contains("not found"));
+  }
+  palletd::test::write_text_file(dir.file("bad.yaml"), "logging:\n  level: loud\n");
+  try {
+    (void)load_config(dir.file("bad.yaml"));
+    FAIL("no error");
+  } catch (const ConfigError& e) {
+    CHECK(e.file() == dir.file("bad.yaml"));
+    CHECK(e.line() == 2);
+    CHECK(e.column() == 10);
+    CHECK_THAT(e.what(), Contains(dir.file("bad.yaml") + ":2:10: logging.level: must be one of"));
+  }
+}

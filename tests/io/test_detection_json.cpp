@@ -1,0 +1,142 @@
+// Detection JSON lines (shared/spec/detections.md): writer and parser.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "palletd/detection_json.hpp"
+
+using namespace palletd;
+using Catch::Contains;
+
+namespace {
+
+Detection sample_detection() {
+  Detection d;
+  d.status = DetectionStatus::ok;
+  d.timing_ms = {{"total", 12.5}, {"plane", 3.25}, {"layout", 7.0}};
+  d.plane_camera.normal = Eigen::Vector3d(0.0, 0.0, -1.0);
+  d.plane_camera.d = 1.42;
+  d.layer_area_m2 = 0.66;
+  d.coverage = 0.98;
+  d.ambiguous = true;
+  DetectedBox a;
+  a.center = Eigen::Vector3d(0.1, -0.05, 1.42);
+  a.long_axis = Eigen::Vector3d(1.0, 0.0, 0.0);
+  a.normal = Eigen::Vector3d(0.0, 0.0, -1.0);
+  a.long_m = 0.315;
+  a.short_m = 0.232;
+  a.format = 1;
+  a.score = 0.97;
+  a.pick_index = 1;
+  DetectedBox b = a;
+  b.center.x() = -0.2;
+  b.format = 0;
+  b.pick_index = 0;
+  b.base_position = Eigen::Vector3d(1.0, 2.0, 0.5);
+  b.base_yaw_deg = -90.0;
+  d.boxes = {a, b};
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("detection line has the keys of the spec in order") {
+  const std::string line = detection_to_json_line(sample_detection(), "data/f0001");
+  CHECK(line.find('\n') == std::string::npos);
+  const auto j = nlohmann::ordered_json::parse(line);
+  std::vector<std::string> keys;
+  for (const auto& item : j.items()) keys.push_back(item.key());
+  const std::vector<std::string> first = {"frame", "status", "message", "timing_ms", "layer", "ambiguous"};
+  REQUIRE(keys.size() >= first.size() + 1);
+  CHECK(std::vector<std::string>(keys.begin(), keys.begin() + 6) == first);
+  CHECK(keys.back() == "boxes");
+  CHECK(j["frame"] == "data/f0001");
+  CHECK(j["status"] == "ok");
+  CHECK(j["timing_ms"].begin().key() == "total");
+  CHECK(j["timing_ms"]["total"] == 12.5);
+  CHECK(j["layer"]["plane"] == nlohmann::ordered_json({0.0, 0.0, -1.0, 1.42}));
+  CHECK(j["layer"]["coverage"] == 0.98);
+  CHECK(j["ambiguous"] == true);
+  REQUIRE(j["boxes"].size() == 2);
+  CHECK(j["boxes"][0]["size"] == nlohmann::ordered_json({0.315, 0.232}));
+  CHECK(j["boxes"][0]["format"] == 1);
+  CHECK_FALSE(j["boxes"][0].contains("base"));
+  CHECK(j["boxes"][1]["base"]["position"] == nlohmann::ordered_json({1.0, 2.0, 0.5}));
+  CHECK(j["boxes"][1]["base"]["yaw_deg"] == -90.0);
+  CHECK(j["boxes"][1]["pick_index"] == 0);
+}
+
+TEST_CASE("detection line round trip through the parser") {
+  const Detection d = sample_detection();
+  auto parsed = parse_detection_line(detection_to_json_line(d, "x/y"));
+  REQUIRE(parsed.ok());
+  const ParsedDetection& p = *parsed;
+  CHECK(p.frame == "x/y");
+  CHECK(p.status == "ok");
+  CHECK(p.timing_ms == d.timing_ms);
+  CHECK(p.plane.normal == d.plane_camera.normal);
+  CHECK(p.plane.d == d.plane_camera.d);
+  CHECK(p.area_m2 == 0.66);
+  CHECK(p.coverage == 0.98);
+  CHECK(p.ambiguous);
+  REQUIRE(p.boxes.size() == 2);
+  for (std::size_t i = 0; i < 2; ++i) {
+    CHECK(p.boxes[i].center == d.boxes[i].center);
+    CHECK(p.boxes[i].long_axis == d.boxes[i].long_axis);
+    CHECK(p.boxes[i].normal == d.boxes[i].normal);
+    CHECK(p.boxes[i].long_m == d.boxes[i].long_m);
+    CHECK(p.boxes[i].short_m == d.boxes[i].short_m);
+    CHECK(p.boxes[i].format == d.boxes[i].format);
+    CHECK(p.boxes[i].score == d.boxes[i].score);
+    CHECK(p.boxes[i].pick_index == d.boxes[i].pick_index);
+  }
+  CHECK_FALSE(p.boxes[0].base_position.has_value());
+  REQUIRE(p.boxes[1].base_position.has_value());
+  CHECK(*p.boxes[1].base_position == Eigen::Vector3d(1.0, 2.0, 0.5));
+  CHECK(p.boxes[1].base_yaw_deg == -90.0);
+}
+
+TEST_CASE("a failed frame still makes a complete line") {
+  Detection d;
+  d.status = DetectionStatus::no_plane;
+  d.message = "no plane within 35 degrees of the view axis";
+  d.timing_ms["total"] = 4.0;
+  const std::string line = detection_to_json_line(d, "f \"quoted\"");
+  auto p = parse_detection_line(line);
+  REQUIRE(p.ok());
+  CHECK(p->status == "no_plane");
+  CHECK(p->message == d.message);
+  CHECK(p->frame == "f \"quoted\"");
+  CHECK(p->boxes.empty());
+}
+
+TEST_CASE("NaN values are written as null and read back as NaN") {
+  Detection d = sample_detection();
+  d.boxes[0].score = std::nan("");
+  const std::string line = detection_to_json_line(d, "n");
+  CHECK_THAT(line, Contains("\"score\":null"));
+  auto p = parse_detection_line(line);
+  REQUIRE(p.ok());
+  CHECK(std::isnan(p->boxes[0].score));
+}
+
+TEST_CASE("bad detection lines are errors") {
+  CHECK_THAT(parse_detection_line("{").error(), Contains("not valid JSON"));
+  CHECK_THAT(parse_detection_line("[]").error(), Contains("JSON object"));
+  CHECK_THAT(parse_detection_line(R"({"status":"ok","boxes":[]})").error(), Contains("'frame'"));
+  CHECK_THAT(parse_detection_line(R"({"frame":"a","status":"ok"})").error(), Contains("'boxes'"));
+  CHECK_THAT(parse_detection_line(R"({"frame":"a","status":"ok","boxes":[{"center":[0,0,1]}]})").error(),
+             Contains("boxes[0]") && Contains("long_axis"));
+  CHECK_THAT(parse_detection_line(
+                 R"({"frame":"a","status":"ok","boxes":[{"center":[0,0,1],"long_axis":[1,0,0],)"
+                 R"("normal":[0,0,-1],"size":[0.3],"format":0}]})")
+                 .error(),
+             Contains("boxes[0].size"));
+  // Extra keys are ignored; optional keys take defaults.
+  auto minimal = parse_detection_line(R"({"frame":"a","status":"no_layer","boxes":[],"extra":{"k":1}})");
+  REQUIRE(minimal.ok());
+  CHECK(minimal->status == "no_layer");
+  CHECK_FALSE(minimal->ambiguous);
+}

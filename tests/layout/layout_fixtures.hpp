@@ -1,0 +1,54 @@
+// Test and benchmark fixtures for the layout search: known layouts, their exact outlines
+// (union of the boxes), noise, synthetic seam rasters, matching of found boxes to the truth.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "palletd/geometry.hpp"
+#include "palletd/layout.hpp"
+
+namespace palletd::layout_test {
+
+/// A box of a known layout, axis-aligned before the layout's pose is applied [m].
+struct TruthBox {
+  double x0, y0;        ///< lower-left corner [m]
+  int format;
+  bool long_along_x;
+};
+
+struct KnownLayout {
+  std::string name;
+  std::vector<BoxFormat> formats;
+  std::vector<TruthBox> boxes;
+  double theta_rad = 0.0;                       ///< pose of the layout in the layer frame
+  Eigen::Vector2d offset = Eigen::Vector2d::Zero();
+  double gap_m = 0.0;  ///< spacing added per grid step between boxes [m] (grid-like layouts only)
+};
+
+/// The true boxes in the layer frame.
+std::vector<Box2d> truth_boxes(const KnownLayout& layout);
+/// Exact outline of the union of the boxes, one polygon with holes per connected component.
+std::vector<PolygonWithHoles> union_outline(const KnownLayout& layout);
+/// Vertices moved by uniform noise of +/- amplitude_m, corners cut by chamfers of chamfer_m.
+std::vector<PolygonWithHoles> perturb(const std::vector<PolygonWithHoles>& polygons, double amplitude_m,
+                                      double chamfer_m, unsigned seed);
+/// Seam raster: value 1 within half_width_m of every edge shared by two boxes.
+SeamEvidence synthetic_seams(const KnownLayout& layout, double cell_m, double half_width_m);
+/// Layer points on a regular grid of pitch_m inside the boxes (the measured top faces).
+std::vector<Eigen::Vector2f> layer_points(const KnownLayout& layout, double pitch_m);
+
+/// Largest centre error [m] over the truth boxes when every truth box has a found twin with the
+/// same format and orientation (within 2 deg) and the counts match; a negative value otherwise.
+double match_error(const std::vector<Box2d>& truth, const std::vector<Box2d>& found);
+
+// Layouts used by the tests and the benchmark.
+KnownLayout block(int cols, int rows, double long_m, double short_m);
+KnownLayout pinwheel(double long_m, double short_m, bool mirrored);  ///< 4 boxes around a hole
+KnownLayout brick();          ///< rows of long boxes and a row of turned boxes, 1200 x 1000
+KnownLayout mixed_formats();  ///< two formats in one layer
+KnownLayout l_shaped();       ///< a 3 x 3 block with two boxes picked
+KnownLayout clusters();       ///< three separate groups
+KnownLayout grid_200x150(int n_boxes);  ///< n boxes of 200 x 150 filling a 1200 x 1000 layer row by row
+
+}  // namespace palletd::layout_test

@@ -1,0 +1,208 @@
+// Seam evidence from a rendered depth frame, and solve_layout end to end on it.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "layout_fixtures.hpp"
+#include "palletd/layout.hpp"
+
+using namespace palletd;
+using namespace palletd::layout_test;
+
+namespace {
+
+/// A camera 1.5 m above the layer looking straight down; boxes of `l` (layer frame) at 1.5 m,
+/// their top faces kInset_m smaller on every side than nominal, so that 4 mm gaps between them
+/// show the layer below (1.6 m); the floor around at 2.0 m.
+constexpr double kInset_m = 0.002;
+struct Scene {
+  Frame frame;
+  OrganizedCloud cloud;
+  LayerResult layer;
+};
+
+struct Noise {
+  double sigma_m = 0.0;    ///< depth noise
+  double dropout = 0.0;    ///< share of pixels without measurement
+  unsigned seed = 1;
+};
+
+Scene render(const KnownLayout& l, bool gaps_visible, bool with_intensity = false, Noise noise = {}) {
+  std::mt19937 rng(noise.seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  Scene s;
+  Intrinsics& in = s.frame.intrinsics;
+  in.width = 640;
+  in.height = 480;
+  in.fx = in.fy = 500.0;
+  in.cx = 319.5;
+  in.cy = 239.5;
+  s.frame.depth_scale_m = 0.0001;
+  s.frame.depth.assign(s.frame.pixel_count(), 0);
+  if (with_intensity) {
+    s.frame.intensity.assign(s.frame.pixel_count(), 300);  // dark gaps and floor
+    s.frame.intensity_bits = 16;
+  }
+  s.layer.status = DetectionStatus::ok;
+  s.layer.plane_camera.normal = Eigen::Vector3d(0, 0, -1);
+  s.layer.plane_camera.d = 1.5;
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // layer x = camera x, layer y = -camera y, layer z = -camera z
+  s.layer.T_camera_layer.linear() = R;
+  s.layer.T_camera_layer.translation() = Eigen::Vector3d(0, 0, 1.5);
+  s.layer.polygons = union_outline(l);
+  const auto truth = truth_boxes(l);
+  s.cloud.width = in.width;
+  s.cloud.height = in.height;
+  s.cloud.points.assign(s.frame.pixel_count(), Eigen::Vector3f::Constant(NAN));
+  auto inside_box = [&](const Eigen::Vector2d& p) {
+    for (const auto& b : truth) {
+      const double c = std::cos(b.yaw_rad), sn = std::sin(b.yaw_rad);
+      const Eigen::Vector2d d = p - b.center;
+      if (std::abs(c * d.x() + sn * d.y()) <= b.long_m / 2 - kInset_m &&
+          std::abs(-sn * d.x() + c * d.y()) <= b.short_m / 2 - kInset_m) {
+        return true;
+      }
+    }
+    return false;
+  };
+  for (int v = 0; v < in.height; ++v) {
+    for (int u = 0; u < in.width; ++u) {
+      const double rx = (u - in.cx) / in.fx, ry = (v - in.cy) / in.fy;
+      const Eigen::Vector2d layer_xy(rx * 1.5, -ry * 1.5);
+      double z = 2.0;
+      const std::size_t i = static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) + static_cast<std::size_t>(u);
+      if (inside_box(layer_xy)) {
+        z = 1.5;
+        if (with_intensity) s.frame.intensity[i] = 2000;
+        s.layer.points_2d.emplace_back(static_cast<float>(layer_xy.x()), static_cast<float>(layer_xy.y()));
+        s.layer.point_pixels.push_back(static_cast<std::int32_t>(i));
+      } else if (clipped_area(s.layer.polygons[0], layer_xy.x() - 1e-4, layer_xy.y() - 1e-4, layer_xy.x() + 1e-4,
+                              layer_xy.y() + 1e-4) > 0) {
+        z = gaps_visible ? 1.6 : 1.5;
+      }
+      if (noise.sigma_m > 0) z += noise.sigma_m * gauss(rng);
+      if (noise.dropout > 0 && uni(rng) < noise.dropout) continue;  // depth 0, point NaN
+      s.frame.depth[i] = static_cast<std::uint16_t>(std::lround(z / s.frame.depth_scale_m));
+      s.cloud.points[i] = Eigen::Vector3f(static_cast<float>(rx * z), static_cast<float>(ry * z), static_cast<float>(z));
+    }
+  }
+  return s;
+}
+
+/// Moves the layout so that its boxes' centroid is under the camera (the layer stays in view).
+KnownLayout centred(KnownLayout l) {
+  l.offset = Eigen::Vector2d::Zero();
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  const auto boxes = truth_boxes(l);
+  for (const auto& b : boxes) c += b.center;
+  l.offset = -c / static_cast<double>(boxes.size());
+  return l;
+}
+
+KnownLayout centred_pinwheel(bool mirrored) {
+  KnownLayout l = pinwheel(0.4, 0.3, mirrored);
+  l.theta_rad = 0.12;
+  l.offset = {-0.33, -0.36};
+  return l;
+}
+
+}  // namespace
+
+TEST_CASE("seam evidence from depth marks the gaps between boxes, not the box tops") {
+  const KnownLayout l = centred_pinwheel(false);
+  const Scene s = render(l, true);
+  const SeamEvidence ev = build_seam_evidence(s.frame, s.cloud, s.layer);
+  REQUIRE_FALSE(ev.empty());
+  CHECK(ev.cell_m == Approx(0.003).margin(1e-6));
+  CHECK(ev.strength > 0.003);
+  auto value_at = [&](const Eigen::Vector2d& p) {
+    const int ix = static_cast<int>((p.x() - ev.origin_m.x()) / ev.cell_m);
+    const int iy = static_cast<int>((p.y() - ev.origin_m.y()) / ev.cell_m);
+    return ev.at(ix, iy);
+  };
+  for (const auto& b : truth_boxes(l)) CHECK(value_at(b.center) < 0.1f);
+  const Scene flat = render(l, false);
+  const SeamEvidence none = build_seam_evidence(flat.frame, flat.cloud, flat.layer);
+  CHECK(none.strength < 0.002);
+  LayerResult bad = s.layer;
+  bad.status = DetectionStatus::no_plane;
+  CHECK(build_seam_evidence(s.frame, s.cloud, bad).empty());
+}
+
+TEST_CASE("solve_layout resolves pinwheel chirality from depth seams and refines to millimetres") {
+  LayoutParams p;
+  p.time_budget_ms = 500;
+  for (bool mirrored : {false, true}) {
+    const KnownLayout l = centred_pinwheel(mirrored);
+    const Scene s = render(l, true);
+    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
+    REQUIRE(r.status == DetectionStatus::ok);
+    CHECK_FALSE(r.ambiguous);
+    const double err = match_error(truth_boxes(l), r.boxes);
+    CHECK(err >= 0.0);
+    CHECK(err < 0.003);
+    CHECK(r.coverage > 0.95);
+    for (double sc : r.box_scores) CHECK(sc > 0.6);
+  }
+}
+
+TEST_CASE("solve_layout flags the pinwheel ambiguous when the gaps are invisible") {
+  const KnownLayout l = centred_pinwheel(false);
+  const Scene s = render(l, false);
+  LayoutParams p;
+  p.time_budget_ms = 500;
+  const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
+  REQUIRE(r.status == DetectionStatus::ok);
+  CHECK(r.ambiguous);
+}
+
+TEST_CASE("intensity edges alone resolve the pinwheel when depth shows no gap") {
+  LayoutParams p;
+  p.time_budget_ms = 500;
+  for (bool mirrored : {false, true}) {
+    const KnownLayout l = centred_pinwheel(mirrored);
+    const Scene s = render(l, false, true);
+    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
+    REQUIRE(r.status == DetectionStatus::ok);
+    CHECK_FALSE(r.ambiguous);
+    CHECK(match_error(truth_boxes(l), r.boxes) >= 0.0);
+  }
+}
+
+TEST_CASE("solve_layout on rendered layers: exact layouts, centres within 3 mm") {
+  LayoutParams p;
+  p.time_budget_ms = 500;
+  std::vector<KnownLayout> layouts = {brick(), grid_200x150(40), l_shaped(), mixed_formats()};
+  for (KnownLayout l : layouts) {
+    l.theta_rad = -0.2;
+    l = centred(l);
+    INFO(l.name);
+    const Scene s = render(l, true);
+    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
+    REQUIRE(r.status == DetectionStatus::ok);
+    CHECK_FALSE(r.ambiguous);
+    const double err = match_error(truth_boxes(l), r.boxes);
+    CHECK(err >= 0.0);
+    CHECK(err < 0.003);
+  }
+}
+
+TEST_CASE("solve_layout with depth noise and dropouts") {
+  LayoutParams p;
+  p.time_budget_ms = 500;
+  for (KnownLayout l : {brick(), grid_200x150(40), pinwheel(0.4, 0.3, true)}) {
+    l.theta_rad = 0.25;
+    l = centred(l);
+    INFO(l.name);
+    const Scene s = render(l, true, false, Noise{0.0015, 0.02, 5U});
+    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
+    REQUIRE(r.status == DetectionStatus::ok);
+    CHECK_FALSE(r.ambiguous);
+    const double err = match_error(truth_boxes(l), r.boxes);
+    CHECK(err >= 0.0);
+    CHECK(err < 0.004);
+  }
+}

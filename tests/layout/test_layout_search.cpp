@@ -1,0 +1,175 @@
+// Layout search: exact recovery of known layouts, noise, seams, ambiguity, paper mode.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "layout_fixtures.hpp"
+#include "palletd/layout.hpp"
+
+using namespace palletd;
+using namespace palletd::layout_test;
+
+namespace {
+
+LayoutParams params_for_tests() {
+  LayoutParams p;
+  p.time_budget_ms = 2000.0;  // generous: correctness here, speed in tests/bench
+  return p;
+}
+
+/// Runs the search on the exact outline (optionally noisy, optionally with seams).
+LayoutResult run(const KnownLayout& l, const LayoutParams& p, bool with_seams, double noise_m = 0.0,
+                 double chamfer_m = 0.0) {
+  auto outline = union_outline(l);
+  if (noise_m > 0 || chamfer_m > 0) outline = perturb(outline, noise_m, chamfer_m, 7U);
+  const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+  return find_layout(outline, l.formats, p, with_seams ? &seams : nullptr);
+}
+
+}  // namespace
+
+TEST_CASE("union outline of a pinwheel is a square with a square hole") {
+  const auto outline = union_outline(pinwheel(0.4, 0.3, false));
+  REQUIRE(outline.size() == 1);
+  CHECK(outline[0].outer.size() == 4);
+  REQUIRE(outline[0].holes.size() == 1);
+  CHECK(area(outline[0]) == Approx(0.49 - 0.01).margin(1e-9));
+}
+
+TEST_CASE("clipped area of a polygon with holes against rectangles is exact") {
+  const auto outline = union_outline(pinwheel(0.4, 0.3, false));
+  CHECK(clipped_area(outline[0], -1, -1, 2, 2) == Approx(0.48).margin(1e-12));
+  CHECK(clipped_area(outline[0], 0.25, 0.25, 0.45, 0.45) == Approx(0.04 - 0.01).margin(1e-12));
+  CHECK(clipped_area(outline[0], 0.8, 0.8, 1.0, 1.0) == Approx(0.0).margin(1e-15));
+}
+
+TEST_CASE("exact recovery of known layouts from ideal outlines with seams") {
+  const LayoutParams p = params_for_tests();
+  std::vector<KnownLayout> layouts = {block(3, 3, 0.4, 0.3), brick(),       pinwheel(0.4, 0.3, false),
+                                      pinwheel(0.4, 0.3, true), mixed_formats(), l_shaped(),
+                                      clusters(),            grid_200x150(40)};
+  for (auto l : layouts) {
+    for (double theta : {0.0, 0.3}) {
+      l.theta_rad = theta;
+      l.offset = {0.1, -0.2};
+      INFO(l.name << " theta " << theta);
+      const LayoutResult r = run(l, p, true);
+      REQUIRE(r.status == DetectionStatus::ok);
+      const double err = match_error(truth_boxes(l), r.boxes);
+      CHECK(err >= 0.0);
+      CHECK(err < 0.002);
+      CHECK_FALSE(r.ambiguous);
+      CHECK(r.coverage > 0.99);
+      CHECK_FALSE(r.budget_exhausted);
+    }
+  }
+}
+
+TEST_CASE("a block with a unique tiling is found without seams and not flagged") {
+  const KnownLayout l = block(3, 3, 0.4, 0.3);
+  const LayoutResult r = run(l, params_for_tests(), false);
+  REQUIRE(r.status == DetectionStatus::ok);
+  CHECK(match_error(truth_boxes(l), r.boxes) >= 0.0);
+  CHECK_FALSE(r.ambiguous);
+  REQUIRE(r.box_scores.size() == r.boxes.size());
+  for (double s : r.box_scores) CHECK(s > 0.99);
+}
+
+TEST_CASE("pinwheel chirality: ambiguous from the outline, resolved by seams") {
+  for (bool mirrored : {false, true}) {
+    const KnownLayout l = pinwheel(0.4, 0.3, mirrored);
+    const LayoutResult no_seams = run(l, params_for_tests(), false);
+    REQUIRE(no_seams.status == DetectionStatus::ok);
+    CHECK(no_seams.ambiguous);
+    CHECK(no_seams.runner_up.size() == 4);
+    const LayoutResult seams = run(l, params_for_tests(), true);
+    REQUIRE(seams.status == DetectionStatus::ok);
+    CHECK_FALSE(seams.ambiguous);
+    CHECK(match_error(truth_boxes(l), seams.boxes) >= 0.0);
+  }
+}
+
+TEST_CASE("noisy outlines: perturbed edges and rounded corners") {
+  const LayoutParams p = params_for_tests();
+  for (auto l : {block(3, 3, 0.4, 0.3), brick(), pinwheel(0.4, 0.3, true), l_shaped(), clusters(),
+                 mixed_formats()}) {
+    l.theta_rad = 0.1;
+    INFO(l.name);
+    const LayoutResult r = run(l, p, true, 0.002, 0.008);
+    REQUIRE(r.status == DetectionStatus::ok);
+    const double err = match_error(truth_boxes(l), r.boxes);
+    CHECK(err >= 0.0);
+    CHECK(err < 0.006);
+    CHECK_FALSE(r.ambiguous);
+  }
+}
+
+TEST_CASE("area methods agree on the layout") {
+  const KnownLayout l = brick();
+  for (AreaMethod m : {AreaMethod::grid_sat, AreaMethod::raster, AreaMethod::clip}) {
+    LayoutParams p = params_for_tests();
+    p.area_method = m;
+    const LayoutResult r = run(l, p, true);
+    REQUIRE(r.status == DetectionStatus::ok);
+    CHECK(match_error(truth_boxes(l), r.boxes) >= 0.0);
+  }
+}
+
+TEST_CASE("paper mode finds the same layout as the product search on small cases") {
+  LayoutParams paper = params_for_tests();
+  paper.search = SearchMode::paper;
+  for (auto l : {block(2, 2, 0.4, 0.3), block(3, 1, 0.4, 0.3), l_shaped(), clusters()}) {
+    INFO(l.name);
+    if (l.name == "l-shaped") l.boxes.resize(4);  // keep the paper's queue small
+    const LayoutResult a = run(l, paper, false);
+    const LayoutResult b = run(l, params_for_tests(), false);
+    REQUIRE(a.status == DetectionStatus::ok);
+    REQUIRE(b.status == DetectionStatus::ok);
+    CHECK_FALSE(a.budget_exhausted);
+    CHECK(match_error(b.boxes, a.boxes) >= 0.0);
+    CHECK(match_error(truth_boxes(l), a.boxes) >= 0.0);
+    CHECK(a.score == Approx(b.score).margin(1e-6));
+  }
+}
+
+TEST_CASE("paper mode reports its cap on a big layer") {
+  LayoutParams paper = params_for_tests();
+  paper.search = SearchMode::paper;
+  paper.paper_max_hypotheses = 5000;
+  const LayoutResult r = run(grid_200x150(40), paper, false);
+  CHECK(r.budget_exhausted);
+  CHECK(r.hypotheses_visited >= 5000);
+}
+
+TEST_CASE("densely sampled jagged outlines keep their corners") {
+  // Every edge resampled every 5 mm with +/-1.5 mm noise: no single edge is long any more.
+  for (auto l : {block(3, 3, 0.4, 0.3), pinwheel(0.4, 0.3, false), l_shaped()}) {
+    l.theta_rad = 0.2;
+    INFO(l.name);
+    std::mt19937 rng(9U);
+    std::uniform_real_distribution<double> u(-0.0015, 0.0015);
+    auto dense = [&](const Ring2d& r) {
+      Ring2d out;
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        const Eigen::Vector2d a = r[i], b = r[(i + 1) % r.size()];
+        const int n = static_cast<int>((b - a).norm() / 0.005);
+        for (int k = 0; k < n; ++k) out.push_back(a + (b - a) * (static_cast<double>(k) / n) + Eigen::Vector2d(u(rng), u(rng)));
+      }
+      return out;
+    };
+    std::vector<PolygonWithHoles> outline;
+    for (const auto& p : union_outline(l)) {
+      PolygonWithHoles q;
+      q.outer = dense(p.outer);
+      for (const auto& h : p.holes) q.holes.push_back(dense(h));
+      outline.push_back(q);
+    }
+    const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+    const LayoutResult r = find_layout(outline, l.formats, params_for_tests(), &seams);
+    REQUIRE(r.status == DetectionStatus::ok);
+    const double err = match_error(truth_boxes(l), r.boxes);
+    CHECK(err >= 0.0);
+    CHECK(err < 0.005);
+  }
+}

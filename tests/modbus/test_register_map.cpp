@@ -1,0 +1,151 @@
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+
+#include "palletd/modbus/register_map.hpp"
+
+using namespace palletd::modbus;
+
+TEST_CASE("32-bit values are split into words in the configured order", "[modbus][register_map]") {
+  std::uint16_t regs[2] = {};
+  put_u32(regs, 0x12345678u, WordOrder::kHighWordFirst);
+  CHECK(regs[0] == 0x1234);
+  CHECK(regs[1] == 0x5678);
+  CHECK(get_u32(regs, WordOrder::kHighWordFirst) == 0x12345678u);
+  put_u32(regs, 0x12345678u, WordOrder::kLowWordFirst);
+  CHECK(regs[0] == 0x5678);
+  CHECK(regs[1] == 0x1234);
+  CHECK(get_u32(regs, WordOrder::kLowWordFirst) == 0x12345678u);
+
+  for (const std::int32_t v : {0, 1, -1, -123456, std::numeric_limits<std::int32_t>::min(),
+                               std::numeric_limits<std::int32_t>::max()}) {
+    for (const WordOrder order : {WordOrder::kHighWordFirst, WordOrder::kLowWordFirst}) {
+      put_i32(regs, v, order);
+      CHECK(get_i32(regs, order) == v);
+    }
+  }
+  put_i32(regs, -2, WordOrder::kHighWordFirst);
+  CHECK(regs[0] == 0xFFFF);
+  CHECK(regs[1] == 0xFFFE);
+}
+
+TEST_CASE("engineering units scale to 0.1 mm, 0.01 deg and per mille", "[modbus][register_map]") {
+  CHECK(metres_to_tenth_mm(1.23456) == 12346);
+  CHECK(metres_to_tenth_mm(-0.5) == -5000);
+  CHECK(metres_to_tenth_mm(1e9) == std::numeric_limits<std::int32_t>::max());
+  CHECK(metres_to_tenth_mm(std::nan("")) == 0);
+  CHECK(tenth_mm_to_metres(12346) == Approx(1.2346));
+  CHECK(degrees_to_hundredths(12.346) == 1235);
+  CHECK(degrees_to_hundredths(-12.346) == -1235);
+  CHECK(degrees_to_hundredths(190.0) == -17000);
+  CHECK(degrees_to_hundredths(-190.0) == 17000);
+  CHECK(degrees_to_hundredths(180.0) == 18000);
+  CHECK(degrees_to_hundredths(-180.0) == -18000);
+  CHECK(degrees_to_hundredths(720.5) == 50);
+  CHECK(unit_to_permille(0.9876) == 988);
+  CHECK(unit_to_permille(1.5) == 1000);
+  CHECK(unit_to_permille(-0.1) == 0);
+  CHECK(milliseconds_to_register(70000.0) == 65535);
+  CHECK(milliseconds_to_register(12.6) == 13);
+}
+
+namespace {
+ResultRecord make_result(int boxes) {
+  ResultRecord r;
+  r.request_id = 4242;
+  r.recipe = 3;
+  r.status = ResultStatus::kOk;
+  r.boxes_found = static_cast<std::uint16_t>(boxes);
+  r.ambiguous = true;
+  r.layer_clipped = true;
+  r.layer_z_m = -1.2345;
+  r.coverage = 0.97;
+  for (int i = 0; i < boxes; ++i) {
+    BoxRecord b;
+    b.x_m = 0.1 * i - 1.0;
+    b.y_m = -0.05 * i;
+    b.z_m = 1.5 + 0.001 * i;
+    b.yaw_deg = -170.0 + 11.0 * i;
+    b.format = static_cast<std::uint16_t>(i % 3);
+    b.score = 0.5 + 0.01 * i;
+    b.pick_index = static_cast<std::uint16_t>(i + 1);
+    r.boxes.push_back(b);
+  }
+  return r;
+}
+}  // namespace
+
+TEST_CASE("a result encodes into 200..530 and decodes back in both word orders",
+          "[modbus][register_map]") {
+  for (const WordOrder order : {WordOrder::kHighWordFirst, WordOrder::kLowWordFirst}) {
+    RegisterImage image{};
+    image.fill(0xABCD);  // stale content must not survive in unused slots
+    const ResultRecord in = make_result(40);
+    encode_result(in, 77, order, image);
+    CHECK(image[kRegResultId] == 77);
+    CHECK(image[kResultIdCopy] == 77);
+    CHECK(image[kRegBoxesFound] == 40);
+    CHECK(image[kRegBoxesReported] == 32);
+    CHECK(image[kRegResultFlags] == (kResAmbiguous | kResLayerClipped));
+    CHECK(image[kRegCoverage] == 970);
+    CHECK(image[kResultStart - 1] == 0xABCD);  // outside the block untouched
+    const DecodedResult out = decode_result(image, order);
+    CHECK(out.result_id == 77);
+    CHECK(out.result_id_copy == 77);
+    CHECK(out.record.request_id == 4242);
+    CHECK(out.record.recipe == 3);
+    CHECK(out.record.layer_z_m == Approx(-1.2345).margin(1e-4));
+    REQUIRE(out.record.boxes.size() == 32);
+    for (std::size_t i = 0; i < 32; ++i) {
+      const BoxRecord& a = in.boxes[i];
+      const BoxRecord& b = out.record.boxes[i];
+      CHECK(b.x_m == Approx(a.x_m).margin(0.5e-4));
+      CHECK(b.y_m == Approx(a.y_m).margin(0.5e-4));
+      CHECK(b.z_m == Approx(a.z_m).margin(0.5e-4));
+      CHECK(b.yaw_deg == Approx(std::remainder(a.yaw_deg, 360.0)).margin(0.005));
+      CHECK(b.format == a.format);
+      CHECK(b.score == Approx(a.score).margin(0.0005));
+      CHECK(b.pick_index == a.pick_index);
+    }
+  }
+  // A smaller result afterwards zeroes the slots the bigger one used.
+  RegisterImage image{};
+  encode_result(make_result(32), 1, WordOrder::kHighWordFirst, image);
+  encode_result(make_result(2), 2, WordOrder::kHighWordFirst, image);
+  for (std::uint16_t a = kBoxStart + 2 * kBoxStride; a < kResultIdCopy; ++a) {
+    INFO("register " << a);
+    CHECK(image[a] == 0);
+  }
+  // The decoded word order matters: reading low-first data as high-first gives other values.
+  RegisterImage low{};
+  encode_result(make_result(3), 5, WordOrder::kLowWordFirst, low);
+  CHECK(decode_result(low, WordOrder::kHighWordFirst).record.boxes[0].x_m !=
+        Approx(make_result(3).boxes[0].x_m).margin(1e-3));
+}
+
+TEST_CASE("the status block carries version, format flags and the test pattern",
+          "[modbus][register_map]") {
+  StatusRecord s;
+  s.status_word = kStReady | kStCameraOk;
+  s.error = ErrorCode::kCameraDisconnected;
+  s.error_detail = 9;
+  s.frames_grabbed = 0x00012345u;
+  s.poses_in_camera_frame = true;
+  s.latency_ms = 123.4;
+  RegisterImage image{};
+  encode_status(s, WordOrder::kLowWordFirst, image);
+  CHECK(image[kRegInterfaceVersion] == 1);
+  CHECK(image[kRegFormatFlags] == (kFmtLowWordFirst | kFmtCameraFrame));
+  CHECK(image[kRegTestPattern] == 0x5678);
+  CHECK(image[kRegTestPattern + 1] == 0x1234);
+  CHECK(image[kRegErrorCode] == 4);
+  CHECK(image[kRegLatencyMs] == 123);
+  const StatusRecord back = decode_status(image, WordOrder::kLowWordFirst);
+  CHECK(back.frames_grabbed == 0x00012345u);
+  CHECK(back.error_detail == 9);
+  encode_status(s, WordOrder::kHighWordFirst, image);
+  CHECK(image[kRegFormatFlags] == kFmtCameraFrame);
+  CHECK(image[kRegTestPattern] == 0x1234);
+  CHECK(image[kRegFramesGrabbed] == 0x0001);
+}

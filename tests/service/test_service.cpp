@@ -1,0 +1,162 @@
+// The service end to end: replay camera -> pipeline -> Modbus server, driven by a real Modbus TCP
+// client over loopback doing the PLC's handshake.
+#include <chrono>
+#include <filesystem>
+#include <thread>
+
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+
+#include "palletd/config.hpp"
+#include "palletd/frame_io.hpp"
+#include "palletd/modbus/register_map.hpp"
+#include "palletd/service.hpp"
+#include "palletd/modbus/client.hpp"
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using palletd::modbus::ErrorCode;
+using palletd::modbus::ResultStatus;
+
+namespace {
+
+// A temporary folder holding copies of bundled frames.
+struct TempFrames {
+  fs::path dir;
+  explicit TempFrames(const std::vector<std::string>& names) {
+    dir = fs::temp_directory_path() / ("palletd-service-" + std::to_string(::getpid()) + "-" +
+                                       std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
+    fs::create_directories(dir);
+    for (const auto& name : names) {
+      for (const char* ext : {".depth.png", ".json", ".intensity.png"}) {
+        const fs::path src = fs::path(PALLETD_TEST_DATA_DIR) / (name + ext);
+        if (fs::exists(src)) fs::copy_file(src, dir / (name + ext));
+      }
+    }
+  }
+  ~TempFrames() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+};
+
+std::vector<std::string> bundled_stems(std::size_t n) {
+  auto stems = palletd::list_frame_stems(PALLETD_TEST_DATA_DIR);
+  REQUIRE(stems.ok());
+  std::vector<std::string> names;
+  for (const auto& s : *stems) {
+    if (names.size() == n) break;
+    names.push_back(fs::path(s).filename().string());
+  }
+  REQUIRE(names.size() == n);
+  return names;
+}
+
+palletd::Config demo_config(const fs::path& replay_dir) {
+  palletd::Config config = palletd::load_config(std::string(PALLETD_SOURCE_DIR) + "/config/demo.yaml");
+  config.camera.driver = "replay";
+  config.camera.replay.directory = replay_dir.string();
+  config.camera.replay.rate_hz = 0.0;
+  config.camera.frame_timeout_ms = 1500;
+  config.modbus.bind_address = "127.0.0.1";
+  config.modbus.port = 0;  // any free port
+  config.recording.enabled = false;
+  return config;
+}
+
+}  // namespace
+
+TEST_CASE("a trigger over Modbus is answered with the detection of the replayed frame") {
+  const auto names = bundled_stems(1);
+  TempFrames frames(names);
+  palletd::Config config = demo_config(frames.dir);
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  const std::uint16_t port = service.health().modbus_port;
+  REQUIRE(port != 0);
+
+  palletd::modbus::PlcClient plc("127.0.0.1", port, config.modbus.unit_id);
+  REQUIRE(plc.connect().ok());
+  auto result = plc.trigger(static_cast<std::uint16_t>(config.recipes.front().number), 4242, 10s);
+  REQUIRE(result.ok());
+  const auto& rec = result->result.record;
+  CHECK(rec.request_id == 4242);
+  CHECK(rec.recipe == config.recipes.front().number);
+
+  // The same frame through detect() directly gives the same boxes.
+  auto frame = palletd::read_frame((frames.dir / names[0]).string());
+  REQUIRE(frame.ok());
+  std::vector<palletd::BoxFormat> formats;
+  for (int i : config.recipes.front().formats) formats.push_back(config.formats[static_cast<std::size_t>(i)]);
+  const palletd::Detection direct = palletd::detect(*frame, formats, config.detection);
+  const auto snapshot = service.latest();
+  REQUIRE(snapshot != nullptr);
+  CHECK(snapshot->request_id == 4242);
+  CHECK(snapshot->detection.status == direct.status);
+  REQUIRE(rec.boxes_found == direct.boxes.size());
+  for (std::size_t i = 0; i < std::min<std::size_t>(direct.boxes.size(), 32); ++i) {
+    // Camera frame (no camera_to_base in this config): 0.1 mm resolution on the wire.
+    const auto& want = direct.boxes[i];
+    const auto& got = rec.boxes[i];
+    const Eigen::Vector3d p = want.base_position ? *want.base_position : want.center;
+    CHECK(got.x_m == Approx(p.x()).margin(1e-4));
+    CHECK(got.y_m == Approx(p.y()).margin(1e-4));
+    CHECK(got.z_m == Approx(p.z()).margin(1e-4));
+    CHECK(got.pick_index == want.pick_index + 1);
+  }
+  service.stop();
+}
+
+TEST_CASE("an unknown recipe fails the trigger with error code 5 and its number as detail") {
+  TempFrames frames(bundled_stems(1));
+  palletd::Service service(demo_config(frames.dir));
+  REQUIRE(service.start().ok());
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
+  REQUIRE(plc.connect().ok());
+  auto result = plc.trigger(999, 7, 10s);
+  REQUIRE(result.ok());
+  CHECK(result->result.record.status == ResultStatus::kFailed);
+  CHECK(result->status.error == ErrorCode::kUnknownRecipe);
+  CHECK(result->status.error_detail == 999);
+  CHECK((result->status.status_word & palletd::modbus::kStError) != 0);
+}
+
+TEST_CASE("a camera that is gone fails the trigger, drops CameraOK, and recovers when it returns") {
+  TempFrames frames(bundled_stems(1));
+  palletd::Config config = demo_config(frames.dir);
+  config.camera.reconnect_min_s = 0.05;
+  config.camera.reconnect_max_s = 0.2;
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
+  REQUIRE(plc.connect().ok());
+  const auto recipe = static_cast<std::uint16_t>(config.recipes.front().number);
+  REQUIRE(plc.trigger(recipe, 1, 10s).ok());
+
+  const fs::path moved = frames.dir.string() + ".away";
+  fs::rename(frames.dir, moved);
+  auto failed = plc.trigger(recipe, 2, 10s);
+  REQUIRE(failed.ok());
+  CHECK(failed->result.record.status == ResultStatus::kFailed);
+  CHECK((failed->status.error == ErrorCode::kCameraDisconnected || failed->status.error == ErrorCode::kFrameTimeout));
+  // CameraOK drops in the status block.
+  palletd::modbus::RegisterImage image{};
+  bool camera_ok_dropped = false;
+  for (int i = 0; i < 100 && !camera_ok_dropped; ++i) {
+    REQUIRE(plc.read(palletd::modbus::kStatusStart, palletd::modbus::kStatusCount, image).ok());
+    camera_ok_dropped = (image[palletd::modbus::kRegStatusWord] & palletd::modbus::kStCameraOk) == 0;
+    std::this_thread::sleep_for(20ms);
+  }
+  CHECK(camera_ok_dropped);
+
+  fs::rename(moved, frames.dir);
+  std::this_thread::sleep_for(300ms);
+  auto recovered = plc.trigger(recipe, 3, 10s);
+  REQUIRE(recovered.ok());
+  // The frame is back: whatever detection says, the camera error is gone.
+  CHECK(recovered->status.error != ErrorCode::kCameraDisconnected);
+  CHECK(recovered->status.error != ErrorCode::kFrameTimeout);
+  CHECK((recovered->status.status_word & palletd::modbus::kStCameraOk) != 0);
+  CHECK(service.health().reconnects >= 1);
+}

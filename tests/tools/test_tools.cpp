@@ -1,0 +1,166 @@
+// The executables as a user runs them: exit codes and messages of palletd --check-config and
+// palletctl info.
+#include <catch2/catch.hpp>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "palletd/frame_io.hpp"
+
+using Catch::Contains;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kBin = PALLETD_BINARY_DIR;
+const std::string kSource = PALLETD_SOURCE_DIR;
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string pattern = (fs::temp_directory_path() / "palletd-tools-test-XXXXXX").string();
+    REQUIRE(::mkdtemp(pattern.data()) != nullptr);
+    path_ = pattern;
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  [[nodiscard]] std::string file(const std::string& name) const { return path_ + "/" + name; }
+
+ private:
+  std::string path_;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+struct Run {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs a built program with arguments; captures stdout, stderr and the exit code.
+Run run(const std::string& program, const std::vector<std::string>& args) {
+  TempDir dir;
+  std::string command = quote(kBin + "/" + program);
+  for (const auto& a : args) command += " " + quote(a);
+  command += " </dev/null >" + quote(dir.file("out")) + " 2>" + quote(dir.file("err"));
+  const int status = std::system(command.c_str());
+  Run r;
+  REQUIRE(WIFEXITED(status));
+  r.exit_code = WEXITSTATUS(status);
+  r.out = slurp(dir.file("out"));
+  r.err = slurp(dir.file("err"));
+  return r;
+}
+
+void write(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+}
+
+}  // namespace
+
+TEST_CASE("palletd --version and palletctl --version print the version") {
+  const Run d = run("src/palletd/palletd", {"--version"});
+  CHECK(d.exit_code == 0);
+  CHECK_THAT(d.out, Contains("palletd 0."));
+  const Run c = run("src/palletctl/palletctl", {"--version"});
+  CHECK(c.exit_code == 0);
+  CHECK_THAT(c.out, Contains("palletctl 0."));
+}
+
+TEST_CASE("palletd --check-config accepts the shipped configurations") {
+  for (const char* name : {"palletd.yaml", "demo.yaml"}) {
+    const std::string path = kSource + "/config/" + name;
+    const Run r = run("src/palletd/palletd", {"--check-config", path});
+    INFO(r.err);
+    CHECK(r.exit_code == 0);
+    CHECK(r.out == path + ": ok\n");
+  }
+}
+
+TEST_CASE("palletd --check-config rejects a bad file with exit code 78 and the place") {
+  TempDir dir;
+  const std::string bad = dir.file("bad.yaml");
+  write(bad, "modbus:\n  port: 502\n  unit_id: 300\n");
+  const Run r = run("src/palletd/palletd", {"--check-config", bad});
+  CHECK(r.exit_code == 78);
+  CHECK_THAT(r.err, Contains(bad + ":3:12: modbus.unit_id: must be between 0 and 255"));
+  CHECK(r.out.empty());
+
+  const std::string syntax = dir.file("syntax.yaml");
+  write(syntax, "camera:\n  driver: [replay\n");
+  const Run s = run("src/palletd/palletd", {"--check-config", syntax});
+  CHECK(s.exit_code == 78);
+  CHECK_THAT(s.err, Contains(syntax + ":") && Contains("YAML syntax error"));
+
+  const Run missing = run("src/palletd/palletd", {"--check-config", dir.file("none.yaml")});
+  CHECK(missing.exit_code == 78);
+  CHECK_THAT(missing.err, Contains("none.yaml") && Contains("not found"));
+}
+
+TEST_CASE("palletd --config validates and says the service is not there yet") {
+  TempDir dir;
+  write(dir.file("bad.yaml"), "logging: {level: loud}\n");
+  const Run bad = run("src/palletd/palletd", {"--config", dir.file("bad.yaml")});
+  CHECK(bad.exit_code == 78);
+  CHECK_THAT(bad.err, Contains("logging.level"));
+  const Run both = run("src/palletd/palletd", {"--config", dir.file("bad.yaml"), "--check-config", "x"});
+  CHECK(both.exit_code != 0);
+  CHECK(both.exit_code != 78);
+}
+
+TEST_CASE("palletctl info summarises frames and goes on after a bad one") {
+  TempDir dir;
+  palletd::Frame frame;
+  frame.intrinsics.width = 4;
+  frame.intrinsics.height = 2;
+  frame.intrinsics.fx = frame.intrinsics.fy = 100.0;
+  frame.intrinsics.cx = 1.5;
+  frame.intrinsics.cy = 0.5;
+  frame.depth_scale_m = 0.00025;
+  frame.depth = {0, 4000, 4400, 6000, 0, 0, 5000, 4800};  // 5 of 8 valid, 1.0 .. 1.5 m
+  frame.intensity = {1, 2, 3, 4, 5, 6, 7, 8};
+  frame.intensity_bits = 8;
+  frame.camera_id = "sim-o3d303";
+  REQUIRE(palletd::write_frame(dir.file("good"), frame).ok());
+
+  const Run r = run("src/palletctl/palletctl", {"info", dir.file("missing"), dir.file("good")});
+  CHECK(r.exit_code == 1);
+  std::istringstream lines(r.out);
+  std::string first, second;
+  std::getline(lines, first);
+  std::getline(lines, second);
+  CHECK_THAT(first, Contains("missing: error:") && Contains("missing.json"));
+  CHECK(second == dir.file("good") +
+                      ": 4x2, depth_scale 0.00025 m, valid 62.5 %, depth 1.000..1.500 m, intensity 8-bit, "
+                      "camera sim-o3d303");
+
+  const Run ok = run("src/palletctl/palletctl", {"info", dir.file("good")});
+  CHECK(ok.exit_code == 0);
+  CHECK(ok.err.empty());
+
+  const Run help = run("src/palletctl/palletctl", {"info", "--help"});
+  CHECK(help.exit_code == 0);
+  CHECK_THAT(help.out, Contains("stems"));
+}

@@ -1,0 +1,387 @@
+// The status page server over loopback with httplib's client, fed by a real detection.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "palletd/detection_json.hpp"
+#include "palletd/frame_io.hpp"
+#include "palletd/web.hpp"
+#include "web_fixture.hpp"
+
+// After Eigen: httplib.h pulls in <resolv.h>, whose _res macro breaks Eigen's headers.
+#include <httplib.h>
+
+using namespace palletd;
+using Json = nlohmann::json;
+
+namespace {
+
+WebOptions test_options(bool allow_post = false) {
+  WebOptions o;
+  o.port = 0;  // any free port, loopback (the default bind address)
+  o.allow_snapshot_post = allow_post;
+  o.sample_period = std::chrono::milliseconds(20);
+  return o;
+}
+
+struct Running {
+  testing::WebFixture& fixture;
+  WebServer server;
+  httplib::Client client;
+  Running(testing::WebFixture& f, WebOptions o, StatusSource src)
+      : fixture(f), server(std::move(o), std::move(src)), client("127.0.0.1", start_port()) {
+    client.set_connection_timeout(5);
+    client.set_read_timeout(10);
+  }
+  Running(testing::WebFixture& f, WebOptions o) : Running(f, std::move(o), f.source()) {}
+  int start_port() {
+    const Status s = server.start();
+    INFO(s.error());
+    REQUIRE(s.ok());
+    REQUIRE(server.port() > 0);
+    return server.port();
+  }
+};
+
+testing::WebFixture& shared_fixture() {
+  static testing::WebFixture fixture;  // one detection for the whole executable
+  return fixture;
+}
+
+Json get_json(httplib::Client& c, const std::string& path, int want_status = 200) {
+  auto r = c.Get(path.c_str());
+  REQUIRE(r);
+  CHECK(r->status == want_status);
+  CHECK(r->get_header_value("Content-Type") == "application/json");
+  return Json::parse(r->body);
+}
+
+}  // namespace
+
+TEST_CASE("the fixture's detection finds the boxes of the frame") {
+  const auto& s = shared_fixture().first();
+  INFO(s.detection.message);
+  REQUIRE(s.detection.status == DetectionStatus::ok);
+  REQUIRE(s.detection.boxes.size() >= 6);
+  for (const auto& b : s.detection.boxes) REQUIRE(b.base_position.has_value());
+}
+
+TEST_CASE("the page is self-contained HTML that refreshes itself") {
+  WebOptions o = test_options();
+  o.refresh_ms = 750;
+  Running run(shared_fixture(), o);
+  CHECK(WebOptions{}.bind_address == "127.0.0.1");
+  auto r = run.client.Get("/");
+  REQUIRE(r);
+  CHECK(r->status == 200);
+  CHECK(r->get_header_value("Content-Type") == "text/html; charset=utf-8");
+  CHECK(r->get_header_value("Content-Security-Policy").find("default-src 'self'") != std::string::npos);
+  const std::string& html = r->body;
+  CHECK(html.find("<table id=\"boxes\"") != std::string::npos);
+  CHECK(html.find("id=\"overlay\"") != std::string::npos);
+  CHECK(html.find("/api/status") != std::string::npos);
+  CHECK(html.find("const REFRESH_MS = 750;") != std::string::npos);
+  CHECK(html.find("__REFRESH_MS__") == std::string::npos);
+  // No CDN or other outside resource: the cell PC has no internet.
+  CHECK(html.find("src=\"http") == std::string::npos);
+  CHECK(html.find("href=\"http") == std::string::npos);
+  CHECK(html.find("<link") == std::string::npos);
+}
+
+TEST_CASE("/api/status reports state, counters, camera, recipe and the decoded registers") {
+  testing::WebFixture& f = shared_fixture();
+  Running run(f, test_options());
+  const Json j = get_json(run.client, "/api/status");
+  CHECK(j["status"]["state"] == "ready");
+  CHECK(j["status"]["error_code"] == 0);
+  REQUIRE(j["status"]["bits"].size() == 9);
+  CHECK(j["status"]["bits"][0]["name"] == "Ready");
+  CHECK(j["status"]["bits"][0]["set"] == true);
+  CHECK(j["status"]["bits"][1]["set"] == false);  // Busy
+  CHECK(j["status"]["bits"][3]["name"] == "ResultReady");
+  CHECK(j["status"]["bits"][3]["set"] == true);
+  CHECK(j["status"]["bits"][6]["set"] == true);  // CameraOK
+  CHECK(j["status"]["poses_in"] == "base");
+  CHECK(j["camera"]["id"] == "synthetic-0001");
+  CHECK(j["camera"]["ok"] == true);
+  CHECK(j["counters"]["triggers"] == 7);
+  CHECK(j["counters"]["missed"] == 3);
+  CHECK(j["counters"]["reconnects"] == 2);
+  CHECK(j["counters"]["latency_ms"]["p50"] == Approx(85.0));
+  CHECK(j["recipe"]["number"] == 1);
+  CHECK(j["recipe"]["name"] == "mixed 315/400");
+  REQUIRE(j["recipe"]["formats"].size() == 2);
+  CHECK(j["recipe"]["formats"][1]["long_mm"] == Approx(400.0));
+  CHECK(j["last_result"]["trigger_seq"] == 7);
+  CHECK(j["last_result"]["boxes"] == f.first().detection.boxes.size());
+
+  const Json& regs = j["registers"];
+  REQUIRE(regs["blocks"].size() == 3);
+  const Json& status_rows = regs["blocks"][1]["rows"];
+  REQUIRE(status_rows.size() == 16);
+  CHECK(status_rows[0]["address"] == "100");
+  CHECK(status_rows[0]["ref"] == "40101");
+  CHECK(status_rows[0]["meaning"] == "Ready, ResultReady, CameraOK");
+  bool pattern_ok = false;
+  for (const auto& row : status_rows)
+    if (row["name"] == "test pattern") pattern_ok = row["value"] == "0x12345678" && row["address"] == "110-111";
+  CHECK(pattern_ok);
+  CHECK(regs["blocks"][0]["rows"][0]["meaning"] == "ResultAck");
+  REQUIRE(regs["boxes"].size() == f.first().detection.boxes.size());
+  CHECK(regs["boxes"][0]["address"] == 210);
+  CHECK(regs["boxes"][1]["ref"] == "40221-40230");
+}
+
+TEST_CASE("/api/status puts an error code and its detail into words") {
+  testing::WebFixture f;
+  modbus::RegisterImage image = f.encode(f.first(), modbus::kStReady | modbus::kStError);
+  image[modbus::kRegErrorCode] = static_cast<std::uint16_t>(modbus::ErrorCode::kDetectionFailed);
+  image[modbus::kRegErrorDetail] = static_cast<std::uint16_t>(modbus::DetectionFailure::kNoPlane);
+  f.set_registers(image);
+  Running run(f, test_options());
+  const Json j = get_json(run.client, "/api/status");
+  CHECK(j["status"]["state"] == "error");
+  CHECK(j["status"]["error"] == "detection failed");
+  CHECK(j["status"]["error_text"].get<std::string>().find("no plane") != std::string::npos);
+  CHECK(j["registers"]["blocks"][1]["rows"][1]["meaning"] == "detection failed");
+
+  image[modbus::kRegErrorCode] = static_cast<std::uint16_t>(modbus::ErrorCode::kUnknownRecipe);
+  image[modbus::kRegErrorDetail] = 9;
+  f.set_registers(image);
+  const Json k = get_json(run.client, "/api/status");
+  CHECK(k["status"]["error_text"].get<std::string>().find("recipe 9") != std::string::npos);
+}
+
+TEST_CASE("/api/result is the detection line of the spec plus trigger metadata") {
+  testing::WebFixture& f = shared_fixture();
+  Running run(f, test_options());
+  auto r = run.client.Get("/api/result");
+  REQUIRE(r);
+  REQUIRE(r->status == 200);
+  CHECK(r->get_header_value("Content-Type") == "application/json");
+  // Any reader of shared/spec/detections.md reads it.
+  Expected<ParsedDetection> parsed = parse_detection_line(r->body);
+  INFO(parsed.error());
+  REQUIRE(parsed.ok());
+  CHECK(parsed->status == "ok");
+  REQUIRE(parsed->boxes.size() == f.first().detection.boxes.size());
+  CHECK(parsed->frame == "palletd-synthetic-0001-7");
+
+  const Json j = Json::parse(r->body);
+  CHECK(j["trigger"]["seq"] == 7);
+  CHECK(j["trigger"]["request_id"] == 1234);
+  CHECK(j["trigger"]["recipe"] == 1);
+  CHECK(j["trigger"]["latency_ms"] == Approx(85.0));
+  CHECK(j["trigger"]["error"] == "no error");
+  CHECK(j["poses_in"] == "base");
+  REQUIRE(j["table"].size() == f.first().detection.boxes.size());
+  for (std::size_t i = 0; i < j["table"].size(); ++i) {
+    const auto& row = j["table"][i];
+    const auto& box = f.first().detection.boxes[i];
+    CHECK(row["frame"] == "base");
+    CHECK(row["x_mm"].get<double>() == Approx(box.base_position->x() * 1000.0));
+    CHECK(row["yaw_deg"].get<double>() == Approx(*box.base_yaw_deg));
+    CHECK(row["format_name"] == (box.format == 0 ? "F315" : "F400"));
+    CHECK(j["boxes"][i]["base"]["position"][2].get<double>() == Approx(box.base_position->z()));
+  }
+}
+
+TEST_CASE("without camera_to_base the box table is in the camera frame and says so") {
+  testing::WebFixture& f = shared_fixture();
+  auto s = std::make_shared<ResultSnapshot>(f.first());
+  for (auto& b : s->detection.boxes) b.base_position.reset(), b.base_yaw_deg.reset();
+  testing::WebFixture local;
+  local.set_latest(s);
+  Running run(local, test_options());
+  const Json j = get_json(run.client, "/api/result");
+  CHECK(j["poses_in"] == "camera");
+  REQUIRE(!j["table"].empty());
+  CHECK(j["table"][0]["frame"] == "camera");
+  CHECK(j["table"][0]["z_mm"].get<double>() == Approx(s->detection.boxes[0].center.z() * 1000.0));
+}
+
+TEST_CASE("/api/overlay.png is the overlay of the latest snapshot, rendered once") {
+  testing::WebFixture& f = shared_fixture();
+  Running run(f, test_options());
+  auto a = run.client.Get("/api/overlay.png");
+  REQUIRE(a);
+  REQUIRE(a->status == 200);
+  CHECK(a->get_header_value("Content-Type") == "image/png");
+  std::vector<std::uint8_t> bytes(a->body.begin(), a->body.end());
+  const cv::Mat img = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  REQUIRE(!img.empty());
+  CHECK(img.cols >= f.first().frame->intrinsics.width);
+  CHECK(img.channels() == 3);
+  auto b = run.client.Get("/api/overlay.png?seq=7");
+  REQUIRE(b);
+  CHECK(b->body == a->body);
+}
+
+TEST_CASE("the last frame downloads in the frame format and reads back identical") {
+  testing::WebFixture& f = shared_fixture();
+  Running run(f, test_options());
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("palletd-web-test-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string stem = (dir / "palletd-synthetic-0001-7").string();
+  auto save = [&](const std::string& path, const std::string& suffix, const std::string& type) {
+    auto r = run.client.Get(path.c_str());
+    REQUIRE(r);
+    REQUIRE(r->status == 200);
+    CHECK(r->get_header_value("Content-Type") == type);
+    CHECK(r->get_header_value("Content-Disposition") ==
+          "attachment; filename=\"palletd-synthetic-0001-7" + suffix + "\"");
+    std::ofstream(stem + suffix, std::ios::binary) << r->body;
+  };
+  save("/api/frame/depth.png", ".depth.png", "image/png");
+  save("/api/frame/meta.json", ".json", "application/json");
+  save("/api/frame/detection.json", ".detection.json", "application/json");
+  Expected<Frame> back = read_frame(stem);
+  INFO(back.error());
+  REQUIRE(back.ok());
+  const Frame& orig = *f.first().frame;
+  CHECK(back->intrinsics.width == orig.intrinsics.width);
+  CHECK(back->intrinsics.fx == Approx(orig.intrinsics.fx));
+  CHECK(back->depth == orig.depth);
+  CHECK(back->depth_scale_m == Approx(orig.depth_scale_m));
+  REQUIRE(back->T_base_camera.has_value());
+  CHECK(back->T_base_camera->matrix().isApprox(orig.T_base_camera->matrix(), 1e-9));
+  // The detection line of the same frame, as the recorder stores it.
+  std::ifstream in(stem + ".detection.json");
+  std::string line;
+  std::getline(in, line);
+  Expected<ParsedDetection> parsed = parse_detection_line(line);
+  REQUIRE(parsed.ok());
+  CHECK(parsed->boxes.size() == f.first().detection.boxes.size());
+  fs::remove_all(dir);
+}
+
+TEST_CASE("unknown paths, missing results and missing files answer 404") {
+  testing::WebFixture f;
+  Running run(f, test_options());
+  for (const char* path : {"/nothing", "/api/nothing", "/api/frame/other.png", "/api/frame/intensity.png"}) {
+    auto r = run.client.Get(path);
+    REQUIRE(r);
+    INFO(path);
+    CHECK(r->status == 404);
+  }
+  f.set_latest(nullptr);
+  for (const char* path : {"/api/result", "/api/overlay.png", "/api/frame/depth.png", "/api/frame/meta.json"}) {
+    auto r = run.client.Get(path);
+    REQUIRE(r);
+    INFO(path);
+    CHECK(r->status == 404);
+    CHECK(Json::parse(r->body).contains("error"));
+  }
+  const Json j = get_json(run.client, "/api/status");
+  CHECK(j["last_result"].is_null());
+}
+
+TEST_CASE("the server is read-only: other methods are refused") {
+  testing::WebFixture& f = shared_fixture();
+  Running run(f, test_options(true));
+  auto put = run.client.Put("/api/status", "{}", "application/json");
+  REQUIRE(put);
+  CHECK(put->status >= 400);
+  auto post = run.client.Post("/api/result", "{}", "application/json");
+  REQUIRE(post);
+  CHECK(post->status >= 400);
+  auto del = run.client.Delete("/api/snapshot");
+  REQUIRE(del);
+  CHECK(del->status >= 400);
+}
+
+TEST_CASE("POST /api/snapshot is refused unless allowed, then passed to the service") {
+  testing::WebFixture f;
+  SECTION("not allowed: 403 and the service is not asked") {
+    Running run(f, test_options(false));
+    auto r = run.client.Post("/api/snapshot", "", "text/plain");
+    REQUIRE(r);
+    CHECK(r->status == 403);
+    CHECK(f.snapshot_requests == 0);
+    CHECK(get_json(run.client, "/api/status")["snapshot_post_allowed"] == false);
+  }
+  SECTION("allowed: 202 and one request per POST") {
+    Running run(f, test_options(true));
+    auto r = run.client.Post("/api/snapshot", "", "text/plain");
+    REQUIRE(r);
+    CHECK(r->status == 202);
+    CHECK(Json::parse(r->body)["requested"] == true);
+    CHECK(f.snapshot_requests == 1);
+    REQUIRE(run.client.Post("/api/snapshot", "", "text/plain"));
+    CHECK(f.snapshot_requests == 2);
+  }
+  SECTION("allowed, but from another site's page: 403") {
+    Running run(f, test_options(true));
+    httplib::Headers headers{{"Origin", "http://evil.example"}};
+    auto r = run.client.Post("/api/snapshot", headers, "", "text/plain");
+    REQUIRE(r);
+    CHECK(r->status == 403);
+    CHECK(f.snapshot_requests == 0);
+  }
+  SECTION("allowed, but the service cannot store snapshots: 501") {
+    StatusSource src = f.source();
+    src.request_snapshot = nullptr;
+    Running run(f, test_options(true), src);
+    auto r = run.client.Post("/api/snapshot", "", "text/plain");
+    REQUIRE(r);
+    CHECK(r->status == 501);
+  }
+  SECTION("allowed, and the service says no: 503 with its reason") {
+    StatusSource src = f.source();
+    src.request_snapshot = []() -> Status { return Error{"recording folder is full"}; };
+    Running run(f, test_options(true), src);
+    auto r = run.client.Post("/api/snapshot", "", "text/plain");
+    REQUIRE(r);
+    CHECK(r->status == 503);
+    CHECK(Json::parse(r->body)["error"] == "recording folder is full");
+  }
+}
+
+TEST_CASE("processing time and latency percentiles come from the results seen, each counted once") {
+  testing::WebFixture f;
+  f.set_latest(nullptr);
+  WebOptions o = test_options();
+  o.stats_window = 100;
+  Running run(f, o);
+  std::shared_ptr<ResultSnapshot> last;
+  for (int i = 1; i <= 150; ++i) {  // the first 50 drop out of the window
+    auto s = std::make_shared<ResultSnapshot>(f.first());
+    s->trigger_seq = static_cast<std::uint64_t>(100 + i);
+    s->latency_ms = static_cast<double>(i);
+    s->detection.timing_ms["total"] = static_cast<double>(2 * i);
+    run.server.observe(s);
+    run.server.observe(s);  // seen twice, counted once
+    last = s;
+  }
+  f.set_latest(last);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the sampler sees it too
+  const Json j = get_json(run.client, "/api/status");
+  CHECK(j["counters"]["window"] == 100);
+  CHECK(j["counters"]["latency_ms"]["p50"].get<double>() == Approx(100.0));   // values 51..150
+  CHECK(j["counters"]["latency_ms"]["p99"].get<double>() == Approx(149.0));
+  CHECK(j["counters"]["processing_ms"]["p50"].get<double>() == Approx(200.0));
+  CHECK(j["counters"]["processing_ms"]["p99"].get<double>() == Approx(298.0));
+}
+
+TEST_CASE("a taken port or a bad source fails start() with the reason") {
+  testing::WebFixture& f = shared_fixture();
+  Running first(f, test_options());
+  WebOptions o = test_options();
+  o.port = first.server.port();
+  WebServer second(o, f.source());
+  const Status s = second.start();
+  CHECK_FALSE(s.ok());
+  CHECK(s.error().find(std::to_string(o.port)) != std::string::npos);
+
+  WebServer bad(test_options(), StatusSource{});
+  CHECK_FALSE(bad.start().ok());
+  bad.stop();  // idempotent, nothing to stop
+  first.server.stop();
+  first.server.stop();
+}
