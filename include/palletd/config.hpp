@@ -88,6 +88,16 @@ struct RecordingConfig {
   bool overlays = true;
 };
 
+/// The read-only status page served by the daemon (docs/commissioning.md).
+struct WebConfig {
+  bool enabled = false;
+  std::string bind_address = "127.0.0.1";  ///< loopback by default
+  int port = 8080;
+  bool allow_snapshot_post = false;  ///< POST /api/snapshot stores the next frame (as SaveSnapshot)
+  int refresh_ms = 1000;             ///< page refresh period [ms]
+  std::vector<std::string> allowed_hosts;  ///< extra Host names (numeric addresses, localhost always)
+};
+
 struct Config {
   std::string source_path;  ///< the file this came from ("" = defaults)
   CameraConfig camera;
@@ -99,6 +109,7 @@ struct Config {
   PipelineConfig pipeline;
   LoggingConfig logging;
   RecordingConfig recording;
+  WebConfig web;
 };
 
 /// A configuration error with its place: "FILE:LINE:COLUMN: KEY.PATH: message".

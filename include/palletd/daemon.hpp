@@ -18,6 +18,7 @@ struct DaemonOptions {
   std::optional<std::string> replay_dir;
   std::optional<std::string> bind_address;
   std::optional<int> port;
+  std::optional<int> web_port;  ///< serve the status page on this port (enables it)
 };
 
 /// Applies the command-line overrides to a loaded config.

@@ -25,7 +25,7 @@ struct PlaneParams {
   double ransac_distance_m = 0.008;    ///< RANSAC inlier band [m]
   int ransac_max_iterations = 200;
   double min_plane_area_m2 = 0.02;     ///< a plane smaller than this is no layer [m^2]
-  std::uint32_t seed = 12345;          ///< RANSAC is seeded: same frame, same result
+  std::uint32_t seed = 12345;          ///< unused: PCL RANSAC runs on its own fixed seed (same frame, same result)
   int ransac_stride_px = 0;            ///< RANSAC on every n-th pixel in u and v (0: ~2500 points); refit uses all
   int max_planes = 6;                  ///< at most this many RANSAC rounds while looking for the top
   double min_depth_m = 0.1;            ///< depths outside [min, max] are treated as invalid [m]

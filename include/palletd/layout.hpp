@@ -15,8 +15,15 @@
 // O(1) summed-area lookup. Boxes are placed by bottom-left canonical filling: the lowest-leftmost
 // undecided cell is either the bottom-left cell of a new box or left uncovered; every layout is
 // generated exactly once (a tree, so no duplicate hypotheses), and the search is best-first on
-// the admissible bound score + undecided area. Seam evidence enters the score as a non-negative
-// penalty (seams crossing box interiors), so the bound stays admissible.
+// the admissible bound score + undecided area.
+//
+// Seam evidence never vetoes a layout the outline supports: find_layout searches on the outline
+// (paper score) alone, collecting the best layout and the materially different ones within the
+// ambiguity margin; seam agreement (seam length along shared box edges minus seam length across
+// box interiors, integrated along whole edges) then chooses among those near-equal hypotheses.
+// `ambiguous` is set only when the seams cannot separate them. The seam raster is noise-aware
+// (depth threshold from the plane noise, intensity gradients against their robust noise level);
+// scattered dropouts, tape and labels are suppressed by the line filter along the layout axes.
 //
 // Paper mode (SearchMode::paper): Algorithms 1-3 as published (breadth-first queue, every
 // orthogonal corner, four stacking ways), capped by paper_max_hypotheses and the time budget.
@@ -57,9 +64,10 @@ struct LayoutParams {
   double ambiguity_margin = 0.02;
   double corner_angle_tol_deg = 10.0;  ///< an outline corner is orthogonal within this [deg]
   double line_merge_tol_m = 0.0;       ///< candidate lines closer than this merge [m]; 0 = auto
-  /// Score of a box = Area(B ∩ C) - seam_weight * (seam mass inside its interior
-  ///   + missing_seam_weight * length of its edges with a neighbour but no seam * seam cell).
-  /// Both terms are >= 0, so score + undecided area stays an admissible bound.
+  /// Seam penalty weights of the internal seam-penalised search (Area(B ∩ C) - seam_weight *
+  /// (interior seam mass + missing_seam_weight * unsupported shared edge * cell)). find_layout
+  /// no longer penalises the search with seams (see the header comment); kept so that
+  /// existing configuration files stay valid.
   double seam_weight = 4.0;
   double missing_seam_weight = 1.0;
   double seam_margin_m = 0.012;        ///< box interior = box shrunk by this before seam lookup [m]
@@ -82,6 +90,7 @@ struct SeamEvidence {
   int height = 0;                                      ///< cells along layer y
   std::vector<float> seam;                             ///< row-major (row = y), 0..1
   double strength = 0.0;  ///< share of layer cells that look like seams (> 0.5); 0 = no evidence
+  double depth_threshold_m = 0.0;  ///< depth below the plane where seams start (noise-aware) [m]
 
   [[nodiscard]] bool empty() const { return width <= 0 || height <= 0 || seam.empty(); }
   [[nodiscard]] float at(int ix, int iy) const {
@@ -92,8 +101,15 @@ struct SeamEvidence {
 
 struct SeamParams {
   double cell_m = 0.0;            ///< raster cell [m]; 0 = the pixel pitch on the layer
-  double depth_step_m = 0.004;    ///< deeper than the plane by more than this = seam [m]
+  /// Deeper than the plane by more than max(depth_step_m, depth_noise_k * sigma) starts to look
+  /// like a seam (fully at twice that); sigma = layer.diagnostics.plane_sigma_m when set, else
+  /// the MAD of the layer pixels' plane residuals [m].
+  double depth_step_m = 0.004;
+  double depth_noise_k = 3.0;
   double intensity_weight = 0.8;  ///< weight of the intensity gradient (0 = ignore intensity)
+  /// An intensity gradient starts to look like an edge above intensity_noise_k times its robust
+  /// noise level on the layer (from the median gradient magnitude), fully at twice that.
+  double intensity_noise_k = 4.0;
 };
 
 /// Builds the seam raster from the frame (depth, optional intensity), its organized cloud and

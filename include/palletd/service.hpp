@@ -67,6 +67,10 @@ class Service {
   /// and the Modbus binding stay as started). Applied between two triggers.
   void reload(const Config& config);
 
+  /// Stores the next triggered frame with its result and overlay in the recording folder (the
+  /// SaveSnapshot bit's path); an error when recording is not configured.
+  Status request_snapshot();
+
   [[nodiscard]] std::shared_ptr<const ResultSnapshot> latest() const;
   [[nodiscard]] ServiceHealth health() const;
   /// A one-line readable state for sd_notify STATUS= ("ready: 12 triggers, camera ok").

@@ -40,6 +40,10 @@ struct WebOptions {
   std::size_t stats_window = 1000;         ///< results kept for the p50/p99 figures
   std::chrono::milliseconds sample_period{100};  ///< how often new snapshots are looked for
   int threads = 2;                         ///< HTTP worker threads
+  /// Host names the page may be opened by, besides numeric addresses and "localhost". Requests
+  /// naming another host are refused (403): a foreign page cannot read the status through DNS
+  /// rebinding.
+  std::vector<std::string> allowed_hosts;
   /// Optional log sink (start/stop, refused requests), called from server threads.
   std::function<void(const std::string&)> log;
 };

@@ -132,7 +132,7 @@ namespace {
 const std::vector<std::string>& top_level_keys() {
   static const std::vector<std::string> keys = {"camera",    "camera_to_base", "formats",
                                                 "recipes",   "detection",      "modbus",
-                                                "pipeline",  "logging",        "recording"};
+                                                "pipeline",  "logging",        "recording", "web"};
   return keys;
 }
 
@@ -157,6 +157,7 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (const YAML::Node n = root["pipeline"]) read_section(ctx, n, "pipeline", pipeline_table(), config.pipeline);
   if (const YAML::Node n = root["logging"]) read_section(ctx, n, "logging", logging_table(), config.logging);
   if (const YAML::Node n = root["recording"]) read_section(ctx, n, "recording", recording_table(), config.recording);
+  if (const YAML::Node n = root["web"]) read_section(ctx, n, "web", web_table(), config.web);
 
   // Checks across keys, reported at the later key.
   if (config.camera.reconnect_max_s < config.camera.reconnect_min_s) {
@@ -223,6 +224,7 @@ std::vector<std::string> config_differences(const Config& a, const Config& b) {
   compare_section(a.pipeline, b.pipeline, "pipeline", pipeline_table(), diffs);
   compare_section(a.logging, b.logging, "logging", logging_table(), diffs);
   compare_section(a.recording, b.recording, "recording", recording_table(), diffs);
+  compare_section(a.web, b.web, "web", web_table(), diffs);
   return diffs;
 }
 
@@ -237,6 +239,7 @@ std::vector<std::string> config_key_paths() {
   list_section("pipeline", pipeline_table(), keys);
   list_section("logging", logging_table(), keys);
   list_section("recording", recording_table(), keys);
+  list_section("web", web_table(), keys);
   return keys;
 }
 

@@ -198,4 +198,23 @@ const Table<RecordingConfig>& recording_table() {
   return t;
 }
 
+const Table<WebConfig>& web_table() {
+  const auto address = [](const std::string& a) { return check_address(a, false); };
+  static const Table<WebConfig> t = {
+      flag("enabled", &WebConfig::enabled),
+      {"bind_address",
+       [address](const Context& ctx, const YAML::Node& node, const std::string& path, WebConfig& out) {
+         std::string v = read_string(ctx, node, path);
+         if (auto e = address(v); !e.empty()) fail(ctx, node, path, e);
+         out.bind_address = std::move(v);
+       },
+       compare_member(&WebConfig::bind_address), list_leaf<WebConfig>},
+      integer("port", &WebConfig::port, 1, 65535),
+      flag("allow_snapshot_post", &WebConfig::allow_snapshot_post),
+      integer("refresh_ms", &WebConfig::refresh_ms, 100, 60000),
+      texts("allowed_hosts", &WebConfig::allowed_hosts),
+  };
+  return t;
+}
+
 }  // namespace palletd::config_detail

@@ -228,6 +228,7 @@ const Table<ModbusConfig>& modbus_table();
 const Table<PipelineConfig>& pipeline_table();
 const Table<LoggingConfig>& logging_table();
 const Table<RecordingConfig>& recording_table();
+const Table<WebConfig>& web_table();
 
 // Sections with their own shape (config_sections.cpp).
 std::optional<Intrinsics> read_intrinsics(const Context& ctx, const YAML::Node& node, const std::string& path);

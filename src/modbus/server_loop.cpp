@@ -95,6 +95,7 @@ void ModbusServer::Impl::run() {
     absorb_published(now);
     handshake_->tick(now);
     sync_mapping();
+    publish_copies();  // registers() shows what the replies below will show
     if (rc > 0) {
       const std::size_t polled = fds.size() - 2;  // connections_ as they were when polled
       for (std::size_t i = 0; i < polled; ++i) {
@@ -247,6 +248,7 @@ void ModbusServer::Impl::handle_frame(Connection& c, const std::uint8_t* frame, 
   }
   push_events(handshake_->on_control_written(mapping_->tab_registers + kControlStart, now));
   sync_mapping();
+  publish_copies();
 }
 
 }  // namespace palletd::modbus

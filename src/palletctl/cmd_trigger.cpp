@@ -1,6 +1,8 @@
 // palletctl trigger: the PLC's handshake once (or --count times) over Modbus TCP, printing the
 // boxes exactly as a PLC reads them from the result block.
+#include <algorithm>
 #include <cstdio>
+#include <vector>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -21,6 +23,7 @@ struct TriggerArgs {
   int request_id = 1;
   int count = 1;
   int timeout_ms = 10000;
+  bool quiet = false;  ///< no box tables, the summary only
 };
 
 const char* status_word(modbus::ResultStatus s) {
@@ -62,6 +65,7 @@ int run_trigger(const TriggerArgs& a) {
     return 1;
   }
   int failures = 0;
+  std::vector<double> handshake_ms;
   for (int i = 0; i < a.count; ++i) {
     const auto request = static_cast<std::uint16_t>((a.request_id + i) & 0xFFFF);
     auto result = plc.trigger(static_cast<std::uint16_t>(a.recipe), request, std::chrono::milliseconds(a.timeout_ms));
@@ -70,9 +74,19 @@ int run_trigger(const TriggerArgs& a) {
       ++failures;
       continue;
     }
-    print_result(*result);
+    handshake_ms.push_back(result->handshake_ms);
+    if (!a.quiet) print_result(*result);
     std::fflush(stdout);
     if (result->result.record.status == modbus::ResultStatus::kFailed) ++failures;
+  }
+  if (a.count > 1) {
+    std::sort(handshake_ms.begin(), handshake_ms.end());
+    auto pct = [&](double p) {
+      if (handshake_ms.empty()) return 0.0;
+      return handshake_ms[static_cast<std::size_t>(p / 100.0 * static_cast<double>(handshake_ms.size() - 1))];
+    };
+    std::printf("%d trigger(s), %d failed; trigger-to-ResultReady p50 %.1f ms, p99 %.1f ms, max %.1f ms\n", a.count,
+                failures, pct(50), pct(99), handshake_ms.empty() ? 0.0 : handshake_ms.back());
   }
   return failures == 0 ? 0 : 1;
 }
@@ -89,6 +103,7 @@ void register_trigger(CLI::App& app) {
   cmd->add_option("--request-id", args->request_id, "first request id")->capture_default_str()->check(CLI::Range(0, 65535));
   cmd->add_option("-n,--count", args->count, "number of triggers")->capture_default_str()->check(CLI::Range(1, 1000000));
   cmd->add_option("--timeout-ms", args->timeout_ms, "timeout per handshake [ms]")->capture_default_str();
+  cmd->add_flag("-q,--quiet", args->quiet, "print only the latency summary (with --count > 1)");
   cmd->callback([args] { throw CLI::RuntimeError(run_trigger(*args)); });
 }
 

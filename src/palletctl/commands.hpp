@@ -11,6 +11,8 @@ void register_frame_info(CLI::App& app);  // palletctl info STEM...
 void register_watch(CLI::App& app);       // palletctl watch --host H: the status block live
 void register_calibrate(CLI::App& app);   // palletctl calibrate --frame STEM --points FILE
 void register_trigger(CLI::App& app);     // palletctl trigger --host H
+void register_detect(CLI::App& app);      // palletctl detect --box LxW STEM...
+void register_eval(CLI::App& app);        // palletctl eval DIR
 void register_simulate(CLI::App& app);    // palletctl simulate --out DIR -n N (scene simulator)
 
 void register_grab(CLI::App& app);    // palletctl grab --config FILE -n N --out DIR

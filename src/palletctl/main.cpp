@@ -3,12 +3,14 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
 
 int main(int argc, char** argv) {
+  cv::setNumThreads(0);  // one core per detection, as in the daemon
   auto logger = spdlog::stderr_color_mt("palletctl");
   logger->set_pattern("%^%l%$: %v");
   spdlog::set_default_logger(logger);
@@ -27,6 +29,8 @@ int main(int argc, char** argv) {
   palletd::register_watch(app);
   palletd::register_calibrate(app);
   palletd::register_trigger(app);
+  palletd::register_detect(app);
+  palletd::register_eval(app);
   palletd::register_simulate(app);
   palletd::register_grab(app);
   palletd::register_record(app);

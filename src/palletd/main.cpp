@@ -45,6 +45,9 @@ int main(int argc, char** argv) {
   auto* bind = app.add_option("--bind", bind_address, "Modbus TCP bind address (overrides modbus.bind_address)");
   auto* port_opt = app.add_option("--port", port, "Modbus TCP port (overrides modbus.port)")
                        ->check(CLI::Range(1, 65535));
+  int web_port = 0;
+  auto* web_opt = app.add_option("--web-port", web_port, "serve the status page on this port (overrides web.*)")
+                      ->check(CLI::Range(1, 65535));
   try {
     app.parse(argc, argv);
   } catch (const CLI::Error& e) {
@@ -63,5 +66,6 @@ int main(int argc, char** argv) {
   if (replay->count() > 0) options.replay_dir = replay_dir;
   if (bind->count() > 0) options.bind_address = bind_address;
   if (port_opt->count() > 0) options.port = port;
+  if (web_opt->count() > 0) options.web_port = web_port;
   return palletd::start_service(options, std::move(*config));
 }

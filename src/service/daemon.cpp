@@ -1,13 +1,16 @@
 #include "palletd/daemon.hpp"
 
 #include <csignal>
+#include <mutex>
 #include <cstdlib>
 
+#include <opencv2/core.hpp>
 #include <pthread.h>
 #include <spdlog/spdlog.h>
 #include <systemd/sd-daemon.h>
 
 #include "palletd/service.hpp"
+#include "palletd/web.hpp"
 
 namespace palletd {
 
@@ -22,6 +25,10 @@ void apply_overrides(const DaemonOptions& options, Config& config) {
   }
   if (options.bind_address) config.modbus.bind_address = *options.bind_address;
   if (options.port) config.modbus.port = *options.port;
+  if (options.web_port) {
+    config.web.enabled = true;
+    config.web.port = *options.web_port;
+  }
 }
 
 namespace {
@@ -40,6 +47,9 @@ int run_daemon(const DaemonOptions& options, Config config) {
   sigaddset(&signals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
+  // Detection runs on the pipeline thread alone (one core per detection, as benchmarked): no
+  // OpenCV worker pool behind it.
+  cv::setNumThreads(0);
   apply_overrides(options, config);
   Service service(config);
   Status started = service.start();
@@ -48,6 +58,38 @@ int run_daemon(const DaemonOptions& options, Config config) {
     notify("STATUS=cannot start: " + started.error());
     return 1;
   }
+  // The status page, bound before READY=1 like the Modbus port.
+  std::mutex recipes_mutex;
+  std::vector<RecipeInfo> recipes = recipe_infos(config);
+  std::unique_ptr<WebServer> web;
+  if (config.web.enabled) {
+    WebOptions wo;
+    wo.bind_address = config.web.bind_address;
+    wo.port = config.web.port;
+    wo.allow_snapshot_post = config.web.allow_snapshot_post;
+    wo.refresh_ms = config.web.refresh_ms;
+    wo.allowed_hosts = config.web.allowed_hosts;
+    wo.log = [](const std::string& line) { spdlog::info("web: {}", line); };
+    StatusSource source;
+    source.latest = [&service] { return service.latest(); };
+    source.health = [&service] { return service.health(); };
+    source.registers = [&service] { return service.registers(); };
+    source.recipes = [&] {
+      std::lock_guard<std::mutex> lock(recipes_mutex);
+      return recipes;
+    };
+    source.request_snapshot = [&service] { return service.request_snapshot(); };
+    source.word_order = config.modbus.low_word_first ? modbus::WordOrder::kLowWordFirst : modbus::WordOrder::kHighWordFirst;
+    web = std::make_unique<WebServer>(wo, source);
+    if (Status s = web->start(); !s) {
+      spdlog::critical("palletd cannot start: {}", s.error());
+      notify("STATUS=cannot start: " + s.error());
+      service.stop();
+      return 1;
+    }
+    spdlog::info("status page on http://{}:{}/", config.web.bind_address, web->port());
+  }
+
   std::uint64_t watchdog_us = 0;
   const bool watchdog = sd_watchdog_enabled(0, &watchdog_us) > 0 && watchdog_us > 0;
   const auto watchdog_period = std::chrono::microseconds(watchdog_us / 2);
@@ -69,6 +111,10 @@ int run_daemon(const DaemonOptions& options, Config config) {
         Config next = load_config(options.config_path);
         apply_overrides(options, next);
         service.reload(next);
+        {
+          std::lock_guard<std::mutex> lock(recipes_mutex);
+          recipes = recipe_infos(next);
+        }
         spdlog::info("configuration reloaded from {}", options.config_path);
       } catch (const std::exception& e) {
         // The old configuration stays in force.
@@ -88,6 +134,7 @@ int run_daemon(const DaemonOptions& options, Config config) {
     }
   }
   notify("STOPPING=1");
+  if (web) web->stop();
   service.stop();
   spdlog::info("palletd stopped");
   return 0;

@@ -102,6 +102,12 @@ class Service::Impl {
     config_ = std::move(next);
   }
 
+  Status request_snapshot() {
+    if (!recorder_) return Error{"recording is not enabled (recording.enabled in the configuration)"};
+    snapshot_requested_ = true;
+    return {};
+  }
+
   std::shared_ptr<const ResultSnapshot> latest() const {
     std::lock_guard<std::mutex> lock(latest_mutex_);
     return latest_;
@@ -297,6 +303,7 @@ Service::~Service() = default;
 Status Service::start() { return impl_->start(); }
 void Service::stop() { impl_->stop(); }
 void Service::reload(const Config& config) { impl_->reload(config); }
+Status Service::request_snapshot() { return impl_->request_snapshot(); }
 std::shared_ptr<const ResultSnapshot> Service::latest() const { return impl_->latest(); }
 ServiceHealth Service::health() const { return impl_->health(); }
 modbus::RegisterImage Service::registers() const { return impl_->registers(); }

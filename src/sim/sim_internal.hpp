@@ -68,8 +68,8 @@ struct PlacedBox {
   int format = 0;        ///< index into the layer's formats
 };
 
-/// Nominal layout (no gaps) of one layer, centred on the origin and inside long x short.
-/// `mirror` flips it (lower layers are built mirrored so their seams differ).
+/// Nominal layout (no gaps) of one layer, its bounding box centred on the origin, inside
+/// area_long x area_short. The realism (gaps, jitter, mirroring of lower layers) comes later.
 std::vector<PlacedBox> make_pattern(PatternFamily family, const std::vector<BoxFormatSpec>& formats,
                                     double area_long_m, double area_short_m, Rng& rng);
 

@@ -1,10 +1,13 @@
 #include "palletd/web.hpp"
 
+#include <arpa/inet.h>
 #include <stdlib.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <condition_variable>
 #include <filesystem>
 #include <fstream>
@@ -77,6 +80,25 @@ FrameFiles encode_frame_files(const Frame& frame) {
   }
   fs::remove_all(dir, ec);
   return files;
+}
+
+/// The Host header names this server by a numeric address, "localhost" or an allowed name.
+bool host_allowed(const std::string& host_header, const std::vector<std::string>& allowed) {
+  std::string host = host_header;
+  if (!host.empty() && host.front() == '[') {  // [IPv6]:port
+    const auto end = host.find(']');
+    if (end == std::string::npos) return false;
+    host = host.substr(1, end - 1);
+    in6_addr a6{};
+    return inet_pton(AF_INET6, host.c_str(), &a6) == 1;
+  }
+  const auto colon = host.rfind(':');
+  if (colon != std::string::npos) host.resize(colon);
+  in_addr a4{};
+  if (inet_pton(AF_INET, host.c_str(), &a4) == 1) return true;
+  for (char& c : host) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (host == "localhost") return true;
+  return std::find(allowed.begin(), allowed.end(), host) != allowed.end();
 }
 
 void send_json(httplib::Response& res, const Json& j, int status = 200) {
@@ -224,6 +246,15 @@ class WebServer::Impl {
   }
 
   void routes() {
+    const httplib::Server::HandlerWithResponse check_host = [this](const httplib::Request& req,
+                                                                   httplib::Response& res) {
+      if (host_allowed(req.get_header_value("Host"), options_.allowed_hosts))
+        return httplib::Server::HandlerResponse::Unhandled;
+      log("web server: refused a request for host \"" + req.get_header_value("Host") + "\" (web.allowed_hosts)");
+      send_error(res, 403, "unknown host name: add it to web.allowed_hosts");
+      return httplib::Server::HandlerResponse::Handled;
+    };
+    server_.set_pre_routing_handler(check_host);
     server_.Get("/", [this](const httplib::Request&, httplib::Response& res) {
       res.set_header("Content-Security-Policy",
                      "default-src 'self'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; img-src 'self'");

@@ -5,7 +5,8 @@
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 ctl=${1:-${PALLETCTL:-build/src/palletctl/palletctl}}
-rm -f "$here"/*.depth.png "$here"/*.intensity.png "$here"/*.json "$here"/*.preview.png
+# Only the numbered frames of this set are replaced.
+rm -f "$here"/[0-9][0-9]_*.depth.png "$here"/[0-9][0-9]_*.intensity.png "$here"/[0-9][0-9]_*.json "$here"/[0-9][0-9]_*.preview.png
 
 sim() { "$ctl" simulate --out "$here" "$@"; }
 

@@ -96,12 +96,14 @@ TEST_CASE("config/demo.yaml defines the bundled formats and recipes") {
   CHECK(demo.formats[3].name == "315x232");
   CHECK(demo.formats[3].long_m == Approx(0.315));
   CHECK(demo.formats[3].short_m == Approx(0.232));
-  REQUIRE(demo.recipes.size() == 6);
+  REQUIRE(demo.recipes.size() == 7);
   for (int i = 0; i < 5; ++i) {
     CHECK(demo.recipes[static_cast<std::size_t>(i)].number == i + 1);
     CHECK(demo.recipes[static_cast<std::size_t>(i)].formats == std::vector<int>{i});
   }
   CHECK(demo.recipes[5].formats == std::vector<int>{0, 1, 2, 3, 4});
+  CHECK(demo.recipes[6].formats == std::vector<int>{0, 1, 2});  // the mixed bundled frame's recipe
+  CHECK(demo.web.enabled);
   CHECK(demo.pipeline.default_recipe == 6);
 }
 

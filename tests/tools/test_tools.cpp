@@ -119,7 +119,7 @@ TEST_CASE("palletd --check-config rejects a bad file with exit code 78 and the p
   CHECK_THAT(missing.err, Contains("none.yaml") && Contains("not found"));
 }
 
-TEST_CASE("palletd --config validates and says the service is not there yet") {
+TEST_CASE("palletd --config refuses a bad file with exit code 78 before starting anything") {
   TempDir dir;
   write(dir.file("bad.yaml"), "logging: {level: loud}\n");
   const Run bad = run("src/palletd/palletd", {"--config", dir.file("bad.yaml")});

@@ -297,13 +297,14 @@ TEST_CASE("the server is read-only: other methods are refused") {
 }
 
 TEST_CASE("POST /api/snapshot is refused unless allowed, then passed to the service") {
-  testing::WebFixture f;
+  testing::WebFixture& f = shared_fixture();
+  const int before = f.snapshot_requests;
   SECTION("not allowed: 403 and the service is not asked") {
     Running run(f, test_options(false));
     auto r = run.client.Post("/api/snapshot", "", "text/plain");
     REQUIRE(r);
     CHECK(r->status == 403);
-    CHECK(f.snapshot_requests == 0);
+    CHECK(f.snapshot_requests == before);
     CHECK(get_json(run.client, "/api/status")["snapshot_post_allowed"] == false);
   }
   SECTION("allowed: 202 and one request per POST") {
@@ -312,9 +313,9 @@ TEST_CASE("POST /api/snapshot is refused unless allowed, then passed to the serv
     REQUIRE(r);
     CHECK(r->status == 202);
     CHECK(Json::parse(r->body)["requested"] == true);
-    CHECK(f.snapshot_requests == 1);
+    CHECK(f.snapshot_requests == before + 1);
     REQUIRE(run.client.Post("/api/snapshot", "", "text/plain"));
-    CHECK(f.snapshot_requests == 2);
+    CHECK(f.snapshot_requests == before + 2);
   }
   SECTION("allowed, but from another site's page: 403") {
     Running run(f, test_options(true));
@@ -322,7 +323,7 @@ TEST_CASE("POST /api/snapshot is refused unless allowed, then passed to the serv
     auto r = run.client.Post("/api/snapshot", headers, "", "text/plain");
     REQUIRE(r);
     CHECK(r->status == 403);
-    CHECK(f.snapshot_requests == 0);
+    CHECK(f.snapshot_requests == before);
   }
   SECTION("allowed, but the service cannot store snapshots: 501") {
     StatusSource src = f.source();
@@ -384,4 +385,25 @@ TEST_CASE("a taken port or a bad source fails start() with the reason") {
   bad.stop();  // idempotent, nothing to stop
   first.server.stop();
   first.server.stop();
+}
+
+TEST_CASE("requests naming a foreign host are refused (DNS rebinding)") {
+  testing::WebFixture& f = shared_fixture();
+  WebOptions o = test_options();
+  o.allowed_hosts = {"cellpc.example"};
+  Running run(f, o);
+  const std::string port = std::to_string(run.server.port());
+  for (const std::string& host : std::vector<std::string>{"127.0.0.1:" + port, "localhost:" + port, "LocalHost", "[::1]:" + port,
+                                 "cellpc.example:" + port, "10.1.2.3"}) {
+    auto r = run.client.Get("/api/status", httplib::Headers{{"Host", host}});
+    REQUIRE(r);
+    INFO(host);
+    CHECK(r->status == 200);
+  }
+  for (const std::string& host : std::vector<std::string>{"evil.example:" + port, "evil.example", "127.0.0.1.evil.example", "[nonsense"}) {
+    auto r = run.client.Get("/", httplib::Headers{{"Host", host}});
+    REQUIRE(r);
+    INFO(host);
+    CHECK(r->status == 403);
+  }
 }

@@ -40,6 +40,17 @@ void fit(Line& line) {
   line.fitted = true;
 }
 
+double rms(const Line& line) {
+  if (line.samples.empty()) return 0.0;
+  double sum = 0.0;
+  for (const auto& s : line.samples) {
+    const Eigen::Vector2d rel = s - line.point;
+    const double d = rel.x() * line.dir.y() - rel.y() * line.dir.x();
+    sum += d * d;
+  }
+  return std::sqrt(sum / static_cast<double>(line.samples.size()));
+}
+
 bool intersect(const Line& a, const Line& b, Eigen::Vector2d& out) {
   const double cross = a.dir.x() * b.dir.y() - a.dir.y() * b.dir.x();
   if (std::abs(cross) < 1e-9) return false;
@@ -160,14 +171,20 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
     merged = false;
     for (std::size_t k = 0; k < lines.size() && lines.size() > 3; ++k) {
       const std::size_t j = (k + 1) % lines.size();
-      if (angle_between_dirs(lines[k].dir, lines[j].dir) >= merge_rad) continue;
-      const Eigen::Vector2d offset = lines[j].point - lines[k].point;
-      const double lateral = std::abs(offset.x() * lines[k].dir.y() - offset.y() * lines[k].dir.x());
-      if (lateral > 2.0 * tol) continue;  // a real step between offset edges
       Line m = lines[k];
       m.samples.insert(m.samples.end(), lines[j].samples.begin(), lines[j].samples.end());
       m.length = lines[k].length + lines[j].length;
       fit(m);
+      // One line when the union fits one (a split caused by noise), or when both are nearly
+      // parallel and nearly in line (no real step between them).
+      // (A long edge without samples of its own is no evidence of one line.)
+      const bool evidence = (lines[k].samples.size() >= 3 && lines[j].samples.size() >= 3) ||
+                            std::min(lines[k].length, lines[j].length) < std::max(6.0 * pitch_m, 4.0 * tol);
+      const bool one_line = evidence && m.samples.size() >= 6 && rms(m) <= 0.5 * tol;
+      const Eigen::Vector2d offset = lines[j].point - lines[k].point;
+      const double lateral = std::abs(offset.x() * lines[k].dir.y() - offset.y() * lines[k].dir.x());
+      const bool parallel = angle_between_dirs(lines[k].dir, lines[j].dir) < merge_rad && lateral <= 2.0 * tol;
+      if (!one_line && !parallel) continue;
       snap(m);
       lines[k] = m;
       lines.erase(lines.begin() + static_cast<std::ptrdiff_t>(j));

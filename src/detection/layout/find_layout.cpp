@@ -39,6 +39,83 @@ Eigen::Vector2d centroid_of(const Ring2d& ring) {
   return ring.empty() ? c : Eigen::Vector2d(c / static_cast<double>(ring.size()));
 }
 
+/// Two hypotheses whose seam agreement differs by less than this share of the shortest box
+/// side [m of seam line] are not separated by the seams (-> ambiguous).
+constexpr double kSeamSeparation = 0.3;
+
+Rect bounds_of(const PolygonWithHoles& p) {
+  Rect b{1e300, 1e300, -1e300, -1e300};
+  for (const auto& v : p.outer) {
+    b.x0 = std::min(b.x0, v.x()); b.x1 = std::max(b.x1, v.x());
+    b.y0 = std::min(b.y0, v.y()); b.y1 = std::max(b.y1, v.y());
+  }
+  return b;
+}
+
+/// Median of the seam values of 4 cm pieces along a line [0, 1]; `value(piece)` reads a piece.
+template <typename ValueFn>
+double median_along(double lo, double hi, ValueFn&& value) {
+  const double seg = 0.04;
+  const int n = std::max(1, static_cast<int>((hi - lo) / seg + 0.5));
+  const double step = (hi - lo) / n;
+  std::vector<double> v;
+  for (int k = 0; k < n; ++k) {
+    const double x = value(lo + k * step, lo + (k + 1) * step);
+    if (x >= 0.0) v.push_back(x);  // negative: no neighbour there, not part of the seam line
+  }
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+/// How well a frame layout agrees with the seam lines [m]: the length of box edges shared with
+/// a neighbour, each weighted by the median seam support along the whole edge, minus the
+/// length of the strongest seam line across each box interior, weighted by the median along
+/// it. Medians over whole edges and widths make short edges inside boxes (tape, labels) and
+/// scattered dropouts weigh nothing against a seam along a full box edge.
+double seam_agreement(const std::vector<FrameBox>& boxes, const SeamTable& table,
+                      const PolygonWithHoles& frame_polygon, const LayoutParams& params) {
+  const double m = params.seam_margin_m;
+  const double cell = table.cell();
+  auto layer_area = [&](const Rect& q) { return clipped_area(frame_polygon, q.x0, q.y0, q.x1, q.y1); };
+  double agree = 0.0;
+  for (const auto& fb : boxes) {
+    const Rect& r = fb.rect;
+    for (int e = 0; e < 4; ++e) {
+      const bool vertical = e < 2;
+      const double pos = e == 0 ? r.x0 : e == 1 ? r.x1 : e == 2 ? r.y0 : r.y1;
+      const double out = (e == 0 || e == 2) ? -1.0 : 1.0;
+      const double lo = (vertical ? r.y0 : r.x0) + m, hi = (vertical ? r.y1 : r.x1) - m;
+      if (hi <= lo) continue;
+      const double a0 = std::min(pos + out * m, pos + out * 3 * m), a1 = std::max(pos + out * m, pos + out * 3 * m);
+      double shared = 0.0;
+      const double med = median_along(lo, hi, [&](double s0, double s1) {
+        const Rect beyond = vertical ? Rect{a0, s0, a1, s1} : Rect{s0, a0, s1, a1};
+        if (layer_area(beyond) < 0.5 * beyond.area()) return -1.0;
+        shared += s1 - s0;
+        const Rect line = vertical ? Rect{pos - cell / 2, s0, pos + cell / 2, s1} : Rect{s0, pos - cell / 2, s1, pos + cell / 2};
+        return std::min(1.0, 2.0 * table.support(line));
+      });
+      agree += shared * med;
+    }
+    double crossing = 0.0;
+    const double lx = r.x1 - r.x0 - 2 * m, ly = r.y1 - r.y0 - 2 * m;
+    if (lx <= 0 || ly <= 0) continue;
+    for (double y = r.y0 + m; y + cell <= r.y1 - m; y += cell) {
+      crossing = std::max(crossing, lx * median_along(r.x0 + m, r.x1 - m, [&](double s0, double s1) {
+                            return table.mean({s0, y, s1, y + cell});
+                          }));
+    }
+    for (double x = r.x0 + m; x + cell <= r.x1 - m; x += cell) {
+      crossing = std::max(crossing, ly * median_along(r.y0 + m, r.y1 - m, [&](double s0, double s1) {
+                            return table.mean({x, s0, x + cell, s1});
+                          }));
+    }
+    agree -= crossing;
+  }
+  return agree;
+}
+
 struct Candidate {
   LayoutFrame frame;
   std::vector<FrameBox> boxes;
@@ -125,6 +202,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     std::vector<Candidate> cands;
     std::vector<SeamTable> tables;
     std::vector<PolygonWithHoles> frame_polys;
+    std::vector<LayoutFrame> frames;
     std::string why;
     const std::size_t n_orient = std::min<std::size_t>(thetas.size(), 3);
     for (std::size_t oi = 0; oi < n_orient; ++oi) {
@@ -137,17 +215,13 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       frame.pivot = centroid_of(comp.outer);
       const PolygonWithHoles fp = frame.to_frame(comp);
       const PolygonWithHoles fe = frame.to_frame(comp_edges);
-      Rect bounds{1e300, 1e300, -1e300, -1e300};
-      for (const auto& p : fp.outer) {
-        bounds.x0 = std::min(bounds.x0, p.x()); bounds.x1 = std::max(bounds.x1, p.x());
-        bounds.y0 = std::min(bounds.y0, p.y()); bounds.y1 = std::max(bounds.y1, p.y());
-      }
-      SeamTable table;
-      if (seams != nullptr && !seams->empty()) table = SeamTable(*seams, frame, bounds);
-      const ComponentSolution cs = search_product(fp, fe, formats, params, table.empty() ? nullptr : &table, d2);
-      const std::size_t slot = tables.size();
-      tables.push_back(std::move(table));
+      // The outline alone decides coverage: seams never enter the search score (a noisy seam
+      // raster must not veto a layout the outline supports). They rank the near-equal
+      // hypotheses below.
+      const ComponentSolution cs = search_product(fp, fe, formats, params, nullptr, d2);
+      const std::size_t slot = frame_polys.size();
       frame_polys.push_back(fp);
+      frames.push_back(frame);
       result.hypotheses_visited += cs.visited;
       result.budget_exhausted = result.budget_exhausted || cs.budget_exhausted;
       if (!cs.found) {
@@ -155,37 +229,85 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
         continue;
       }
       cands.push_back({frame, cs.boxes, cs.score, slot});
-      if (cs.has_runner_up) cands.push_back({frame, cs.runner_up, cs.runner_up_score, slot});
+      for (std::size_t a = 0; a < cs.alternatives.size(); ++a) {
+        cands.push_back({frame, cs.alternatives[a], cs.alternative_scores[a], slot});
+      }
+      // Too many near-equal tilings to list: let a seam-penalised search choose among the
+      // layouts whose outline score is within the margin of the best (never fewer boxes).
+      if (cs.alternatives.size() >= kMaxAlternatives && !cs.budget_exhausted && seams != nullptr &&
+          !seams->empty() && seams->strength > 0.0) {
+        const SeamTable table(*seams, frame, bounds_of(fp));
+        if (!table.empty()) {
+          const auto now3 = std::chrono::steady_clock::now();
+          const auto left3 = d2.end > now3 ? d2.end - now3 : std::chrono::steady_clock::duration::zero();
+          const ComponentSolution ss = search_product(fp, fe, formats, params, &table, Deadline{now3 + left3},
+                                                      cs.score - params.ambiguity_margin * min_box_area);
+          result.hypotheses_visited += ss.visited;
+          if (ss.found) cands.push_back({frame, ss.boxes, ss.outline_score, slot});
+          for (const auto& alt : ss.alternatives) {
+            double covered_m2 = 0.0;  // its outline score
+            for (const auto& b : alt) covered_m2 += clipped_area(fp, b.rect.x0, b.rect.y0, b.rect.x1, b.rect.y1);
+            cands.push_back({frame, alt, covered_m2, slot});
+          }
+        }
+      }
     }
     if (cands.empty()) {
       reasons.push_back("component " + std::to_string(ci) + ": " + (why.empty() ? "no layout found" : why));
       continue;
     }
     std::stable_sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
-    const Candidate& best = cands.front();
-    result.score += best.score;
-    // Runner-up: the best candidate that is materially different.
+    // Near-equal outline hypotheses: materially different layouts within the ambiguity margin.
     const double same_tol = 0.25 * std::sqrt(min_box_area);
+    const double margin = params.ambiguity_margin * min_box_area;
+    std::vector<std::size_t> near{0};
     for (std::size_t k = 1; k < cands.size(); ++k) {
       const Candidate& c = cands[k];
-      const bool same_frame = std::abs(c.frame.theta_rad - best.frame.theta_rad) < 1e-9;
-      if (same_frame && same_layout(c.boxes, best.boxes, same_tol)) continue;
-      const double gap = best.score - c.score;
+      if (cands.front().score - c.score >= margin) break;
+      bool dup = false;
+      for (std::size_t n : near) {
+        const Candidate& o = cands[n];
+        dup = dup || (std::abs(c.frame.theta_rad - o.frame.theta_rad) < 1e-9 && same_layout(c.boxes, o.boxes, same_tol));
+      }
+      if (!dup) near.push_back(k);
+    }
+    const bool have_seams = seams != nullptr && !seams->empty() && seams->strength > 0.0;
+    tables.resize(frame_polys.size());
+    auto table_of = [&](std::size_t slot) -> const SeamTable* {
+      if (!have_seams) return nullptr;
+      if (tables[slot].empty()) tables[slot] = SeamTable(*seams, frames[slot], bounds_of(frame_polys[slot]));
+      return tables[slot].empty() ? nullptr : &tables[slot];
+    };
+    // Rank the near-equal hypotheses by seam agreement (line integrals along whole edges).
+    std::vector<std::size_t> order = near;
+    bool ambiguous = near.size() > 1;
+    if (near.size() > 1 && have_seams) {
+      std::vector<double> agree(cands.size(), 0.0);
+      for (std::size_t n : near) {
+        const SeamTable* t = table_of(cands[n].orientation);
+        agree[n] = t == nullptr ? 0.0 : seam_agreement(cands[n].boxes, *t, frame_polys[cands[n].orientation], params);
+      }
+      std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return agree[a] > agree[b]; });
+      ambiguous = agree[order[0]] - agree[order[1]] < kSeamSeparation * min_short;
+    }
+    const Candidate& best = cands[order.front()];
+    result.score += best.score;
+    result.ambiguous = result.ambiguous || ambiguous;
+    if (order.size() > 1) {
+      const Candidate& c = cands[order[1]];
+      const double gap = std::abs(best.score - c.score);
       if (result.runner_up_gap < 0 || gap < result.runner_up_gap) {
         result.runner_up_gap = gap;
         result.runner_up.clear();
         for (const auto& b : c.boxes) result.runner_up.push_back(c.frame.to_layer(b, formats));
       }
-      if (gap < params.ambiguity_margin * min_box_area) result.ambiguous = true;
-      break;
     }
     double comp_covered = 0;
     std::vector<BoxSupport> support;
+    const SeamTable* best_table = table_of(best.orientation);
     for (const auto& fb : best.boxes) {
-      const SeamTable& t = tables[best.orientation];
-      const bool use_seams = seams != nullptr && seams->strength > 0.0 && !t.empty();
       support.push_back(box_support(best.frame.to_layer(fb, formats), best.frame, frame_polys[best.orientation],
-                                    use_seams ? &t : nullptr, params));
+                                    best_table, params));
       comp_covered += support.back().inside_area_m2;
     }
     if (comp_covered < params.min_coverage * comp_area) {

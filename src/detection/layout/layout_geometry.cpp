@@ -260,11 +260,12 @@ SeamTable::SeamTable(const SeamEvidence& seams, const LayoutFrame& frame, const 
   cv::integral(line, sat, CV_64F);
   sat_.assign(reinterpret_cast<const double*>(sat.data),
               reinterpret_cast<const double*>(sat.data) + sat.total());
-  // Edge support: a seam within a few millimetres of a box edge supports it (gaps have width);
-  // from the unfiltered raster, so that seam ends near the outline still count.
+  // Edge support: a seam line within a few millimetres of a box edge supports it (gaps have
+  // width); from the line-filtered raster, so that scattered dropouts and noise next to an edge
+  // do not count as a seam along it.
   const int d = std::max(3, static_cast<int>(std::lround(0.008 / cell_)) * 2 + 1);
   cv::Mat wide;
-  cv::dilate(dst, wide, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(d, d)));
+  cv::dilate(line, wide, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(d, d)));
   cv::integral(wide, sat, CV_64F);
   sat_support_.assign(reinterpret_cast<const double*>(sat.data),
                       reinterpret_cast<const double*>(sat.data) + sat.total());

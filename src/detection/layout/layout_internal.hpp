@@ -141,14 +141,23 @@ struct Deadline {
   [[nodiscard]] bool passed() const { return std::chrono::steady_clock::now() >= end; }
 };
 
+/// Near-equal, materially different layouts kept per search (more: the seams choose by a
+/// seam-penalised search constrained to the outline's near-equal layouts).
+constexpr std::size_t kMaxAlternatives = 6;
+
 /// One component's answer in its layout frame.
 struct ComponentSolution {
   bool found = false;
   std::vector<FrameBox> boxes;
   double score = 0.0;       ///< [m^2]
+  double outline_score = 0.0;  ///< covered area of the chosen layout, without seam penalties [m^2]
   bool has_runner_up = false;
   std::vector<FrameBox> runner_up;
   double runner_up_score = 0.0;
+  /// Materially different layouts within the ambiguity margin of the best, best first
+  /// (the runner-up is the first of them).
+  std::vector<std::vector<FrameBox>> alternatives;
+  std::vector<double> alternative_scores;
   bool budget_exhausted = false;
   std::size_t visited = 0;
   std::string reason;       ///< when !found
@@ -159,10 +168,13 @@ struct ComponentSolution {
 PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m);
 
 /// Product search in one layout frame. `frame_edges` (the simplified outline, same frame) gives
-/// the candidate lines; `frame_polygon` the exact areas.
+/// the candidate lines; `frame_polygon` the exact areas. With `seams`, the score subtracts seam
+/// penalties; layouts covering less than `min_outline_score` [m^2] are pruned (so that seams
+/// only choose among layouts the outline supports).
 ComponentSolution search_product(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
                                  const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                                 const SeamTable* seams, const Deadline& deadline);
+                                 const SeamTable* seams, const Deadline& deadline,
+                                 double min_outline_score = -1e300);
 
 /// Algorithms 1-3 in the layer frame (no layout frame; the paper's boxes carry their own angle).
 struct PaperSolution {

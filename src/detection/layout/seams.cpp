@@ -10,6 +10,20 @@
 
 namespace palletd {
 
+namespace {
+
+double median_abs_deviation(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  const double med = *mid;
+  for (double& x : v) x = std::abs(x - med);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
 SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud,
                                  const LayerResult& layer, const SeamParams& params) {
   SeamEvidence ev;
@@ -39,30 +53,6 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
     return ev;
   }
 
-  // Intensity gradient magnitude.
-  cv::Mat grad;
-  double grad_scale = 0.0;
-  if (frame.has_intensity() && params.intensity_weight > 0 &&
-      frame.intensity.size() == frame.pixel_count()) {
-    cv::Mat inten(in.height, in.width, CV_16U, const_cast<std::uint16_t*>(frame.intensity.data()));
-    cv::Mat f, gx, gy;
-    inten.convertTo(f, CV_32F);
-    cv::Sobel(f, gx, CV_32F, 1, 0, 3);
-    cv::Sobel(f, gy, CV_32F, 0, 1, 3);
-    cv::magnitude(gx, gy, grad);
-    // Scale: a high percentile of the non-zero gradients (edges stand far above sensor noise).
-    std::vector<float> sample;
-    for (int i = 0; i < static_cast<int>(grad.total()); i += 3) {
-      const float g = grad.at<float>(i);
-      if (g > 0.f) sample.push_back(g);
-    }
-    if (!sample.empty()) {
-      const auto k = sample.size() * 90 / 100;
-      std::nth_element(sample.begin(), sample.begin() + static_cast<long>(k), sample.end());
-      grad_scale = sample[k];
-    }
-  }
-
   // Pixel -> layer point where its ray meets the plane, as one homography H (pixel -> cell):
   // q = (R r (-d) + t (n . r)) / (n . r) with r = K^-1 (u, v, 1); the ray is used, not the
   // measured point, so that pixels without depth land where they belong.
@@ -76,41 +66,6 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
   H.row(2) = plane.normal.transpose();
   H = H * K_inv;
   const auto W = static_cast<std::size_t>(ev.width);
-  std::vector<float> sum(W * static_cast<std::size_t>(ev.height), 0.f), count(sum.size(), 0.f);
-  const double step = params.depth_step_m;
-  for (int v = 0; v < in.height; ++v) {
-    for (int u = 0; u < in.width; ++u) {
-      const double den = H(2, 0) * u + H(2, 1) * v + H(2, 2);  // n . r
-      if (std::abs(den) < 1e-12 || -plane.d / den <= 0) continue;  // ray parallel or plane behind
-      const double fx = (H(0, 0) * u + H(0, 1) * v + H(0, 2)) / den;
-      const double fy = (H(1, 0) * u + H(1, 1) * v + H(1, 2)) / den;
-      if (!(fx >= 0 && fy >= 0 && fx < ev.width && fy < ev.height)) continue;
-      const int cx = static_cast<int>(fx);
-      const int cy = static_cast<int>(fy);
-      if (cx < 0 || cy < 0 || cx >= ev.width || cy >= ev.height) continue;
-      const std::size_t pix = static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) + static_cast<std::size_t>(u);
-      const Eigen::Vector3f& p = cloud.points[pix];
-      float s;
-      if (!std::isfinite(p.x()) || !std::isfinite(p.z())) {
-        s = 1.f;  // no measurement inside the layer: a gap or a dark edge
-      } else {
-        const double below = -plane.signed_distance(p.cast<double>());
-        s = static_cast<float>(std::clamp((below - 0.5 * step) / (0.5 * step), 0.0, 1.0));
-      }
-      if (grad_scale > 0) {
-        const double g = grad.at<float>(v, u) / grad_scale;
-        s = std::max(s, static_cast<float>(params.intensity_weight * std::clamp(g, 0.0, 1.0)));
-      }
-      const std::size_t c = static_cast<std::size_t>(cy) * W + static_cast<std::size_t>(cx);
-      sum[c] += s;
-      count[c] += 1.f;
-    }
-  }
-  // Mean per cell; cells no pixel fell into take their neighbours' mean.
-  cv::Mat msum(ev.height, ev.width, CV_32F, sum.data()), mcount(ev.height, ev.width, CV_32F, count.data());
-  cv::Mat nsum, ncount;
-  cv::boxFilter(msum, nsum, CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false);
-  cv::boxFilter(mcount, ncount, CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false);
   // Only the inside of the outline counts: the outline itself is no seam.
   cv::Mat mask = cv::Mat::zeros(ev.height, ev.width, CV_8U);
   auto to_pts = [&](const Ring2d& ring) {
@@ -130,6 +85,92 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
   }
   // Cells on the outline mix box tops with the floor around: keep two cells clear of it.
   cv::erode(mask, mask, cv::Mat(), cv::Point(-1, -1), 2);
+
+  // Pass 1: which pixels fall inside the layer, and the noise of depth and intensity there.
+  std::vector<int> cell_of(frame.pixel_count(), -1);
+  for (int v = 0; v < in.height; ++v) {
+    for (int u = 0; u < in.width; ++u) {
+      const double den = H(2, 0) * u + H(2, 1) * v + H(2, 2);  // n . r
+      if (std::abs(den) < 1e-12 || -plane.d / den <= 0) continue;  // ray parallel or plane behind
+      const double fx = (H(0, 0) * u + H(0, 1) * v + H(0, 2)) / den;
+      const double fy = (H(1, 0) * u + H(1, 1) * v + H(1, 2)) / den;
+      if (!(fx >= 0 && fy >= 0 && fx < ev.width && fy < ev.height)) continue;
+      const int cx = static_cast<int>(fx);
+      const int cy = static_cast<int>(fy);
+      if (cx < 0 || cy < 0 || cx >= ev.width || cy >= ev.height) continue;
+      cell_of[static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) + static_cast<std::size_t>(u)] =
+          cy * ev.width + cx;
+    }
+  }
+  std::vector<double> residuals;
+  for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
+    const int c = cell_of[pix];
+    if (c < 0 || mask.at<std::uint8_t>(c / ev.width, c % ev.width) == 0) continue;
+    const Eigen::Vector3f& p = cloud.points[pix];
+    if (std::isfinite(p.x()) && std::isfinite(p.z())) residuals.push_back(plane.signed_distance(p.cast<double>()));
+  }
+  // Depth noise: the layer stage's plane residual when it reports one, else a robust estimate
+  // (MAD) of the residuals on the layer. A pixel is seam-like only when it lies clearly below
+  // the plane against that noise (seams, not noise, reach several sigma).
+  double sigma_m = layer.diagnostics.plane_sigma_m;
+  if (!(sigma_m > 0.0) && residuals.size() >= 20) sigma_m = 1.4826 * median_abs_deviation(residuals);
+  const double step = std::max(params.depth_step_m, params.depth_noise_k * (std::isfinite(sigma_m) ? sigma_m : 0.0));
+  ev.depth_threshold_m = step;
+
+  // Intensity gradient magnitude, normalised by its robust noise level on the layer (the median
+  // gradient magnitude is noise: for Gaussian noise it is 1.18 sigma of a gradient component).
+  cv::Mat grad;
+  double grad_sigma = 0.0;
+  if (frame.has_intensity() && params.intensity_weight > 0 &&
+      frame.intensity.size() == frame.pixel_count()) {
+    cv::Mat inten(in.height, in.width, CV_16U, const_cast<std::uint16_t*>(frame.intensity.data()));
+    cv::Mat f, gx, gy;
+    inten.convertTo(f, CV_32F);
+    cv::Sobel(f, gx, CV_32F, 1, 0, 3);
+    cv::Sobel(f, gy, CV_32F, 0, 1, 3);
+    cv::magnitude(gx, gy, grad);
+    std::vector<double> sample;
+    for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
+      const int c = cell_of[pix];
+      if (c < 0 || mask.at<std::uint8_t>(c / ev.width, c % ev.width) == 0) continue;
+      sample.push_back(grad.at<float>(static_cast<int>(pix)));
+    }
+    if (sample.size() >= 20) {
+      const auto k = sample.size() / 2;
+      std::nth_element(sample.begin(), sample.begin() + static_cast<long>(k), sample.end());
+      // A floor of one count keeps noise-free (synthetic) intensity from dividing by zero.
+      grad_sigma = std::max(sample[k] / 1.18, 1.0);
+    }
+  }
+
+  std::vector<float> sum(W * static_cast<std::size_t>(ev.height), 0.f), count(sum.size(), 0.f);
+  const double g_lo = params.intensity_noise_k;
+  for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
+    const int cell = cell_of[pix];
+    if (cell < 0) continue;
+    const Eigen::Vector3f& p = cloud.points[pix];
+    float s;
+    if (!std::isfinite(p.x()) || !std::isfinite(p.z())) {
+      // No measurement: a gap or a dark edge, or a random dropout. The layout stage keeps only
+      // line-like runs of these along its axes (SeamTable), so scattered dropouts fade.
+      s = 1.f;
+    } else {
+      const double below = -plane.signed_distance(p.cast<double>());
+      s = static_cast<float>(std::clamp((below - step) / step, 0.0, 1.0));
+    }
+    if (grad_sigma > 0) {
+      const double z = grad.at<float>(static_cast<int>(pix)) / grad_sigma;
+      s = std::max(s, static_cast<float>(params.intensity_weight * std::clamp((z - g_lo) / g_lo, 0.0, 1.0)));
+    }
+    const auto c = static_cast<std::size_t>(cell);
+    sum[c] += s;
+    count[c] += 1.f;
+  }
+  // Mean per cell; cells no pixel fell into take their neighbours' mean.
+  cv::Mat msum(ev.height, ev.width, CV_32F, sum.data()), mcount(ev.height, ev.width, CV_32F, count.data());
+  cv::Mat nsum, ncount;
+  cv::boxFilter(msum, nsum, CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false);
+  cv::boxFilter(mcount, ncount, CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false);
   ev.seam.assign(sum.size(), 0.f);
   std::size_t inside = 0, seamy = 0;
   for (int y = 0; y < ev.height; ++y) {

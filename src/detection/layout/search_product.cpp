@@ -109,8 +109,9 @@ struct QueueItem {
 class ProductSearch {
  public:
   ProductSearch(const PolygonWithHoles& poly, const PolygonWithHoles& edges, const std::vector<BoxFormat>& formats,
-                const LayoutParams& params, const SeamTable* seams, const Deadline& deadline)
-      : poly_(poly), edges_(edges), formats_(formats), params_(params), seams_(seams), deadline_(deadline) {}
+                const LayoutParams& params, const SeamTable* seams, const Deadline& deadline, double min_outline)
+      : poly_(poly), edges_(edges), formats_(formats), params_(params), seams_(seams), deadline_(deadline),
+        min_outline_(min_outline) {}
 
   ComponentSolution run();
 
@@ -129,6 +130,7 @@ class ProductSearch {
   const LayoutParams& params_;
   const SeamTable* seams_;
   const Deadline& deadline_;
+  double min_outline_;  ///< layouts covering less than this [m^2] are pruned
 
   std::vector<double> xs_, ys_;
   int nx_ = 0, ny_ = 0;
@@ -366,6 +368,61 @@ ComponentSolution ProductSearch::run() {
     const Node& n = nodes_[static_cast<std::size_t>(k)];
     return n.covered - n.penalty;
   };
+  // Child of node k placing placement pi of its cursor cell (-1 = leave the cell uncovered).
+  auto make_child = [&](int k, int pi) -> std::size_t {
+    const Node cur = nodes_[static_cast<std::size_t>(k)];
+    const int c = cur.cursor;
+    Node child = cur;
+    child.parent = k;
+    child.placement = pi;
+    child.cell = c;
+    const std::size_t idx = nodes_.size();
+    pool_.resize(pool_.size() + words_);
+    std::copy(occ(static_cast<std::size_t>(k)), occ(static_cast<std::size_t>(k)) + words_, occ(idx));
+    std::uint64_t* o = occ(idx);
+    if (pi < 0) {
+      o[c >> 6] |= std::uint64_t{1} << (c & 63);
+      child.lost += cell_area_[static_cast<std::size_t>(c)];
+    } else {
+      const Placement& p = placements_[static_cast<std::size_t>(c)][static_cast<std::size_t>(pi)];
+      const int i = c % nx_, j = c / nx_;
+      for (int row = j; row < p.j1; ++row) set_range(o, row * nx_ + i, p.i1 - i);
+      child.covered += p.area;
+      child.penalty += p.penalty;
+    }
+    ++child.cursor;
+    advance(child, o);
+    nodes_.push_back(child);
+    return idx;
+  };
+  // Incumbent: a complete layout from greedy dives (largest fitting box first). It only tightens
+  // the pruning (nothing below incumbent - margin can be within the margin of the best), so the
+  // bound stays admissible; when the budget runs out, it is a complete answer.
+  int incumbent = -1;
+  auto dive = [&](int k) {
+    while (!nodes_[static_cast<std::size_t>(k)].complete) {
+      if (nodes_.size() >= max_nodes) return;
+      const int c = nodes_[static_cast<std::size_t>(k)].cursor;
+      const auto& list = placements_[static_cast<std::size_t>(c)];
+      int pick = -1;
+      for (int pi = 0; pi < static_cast<int>(list.size()); ++pi) {
+        if (fits(occ(static_cast<std::size_t>(k)), c, list[static_cast<std::size_t>(pi)])) {
+          pick = pi;
+          break;
+        }
+      }
+      k = static_cast<int>(make_child(k, pick));
+    }
+    if (nodes_[static_cast<std::size_t>(k)].covered < min_outline_) return;
+    if (incumbent < 0 || score_of(k) > score_of(incumbent)) incumbent = k;
+  };
+  auto floor_score = [&]() {
+    double f = -1e300;
+    if (best >= 0) f = score_of(best);
+    if (incumbent >= 0) f = std::max(f, score_of(incumbent));
+    return f - margin;
+  };
+  dive(0);
   std::vector<FrameBox> best_boxes;
   std::size_t pops = 0;
   bool exhausted = false;
@@ -379,17 +436,32 @@ ComponentSolution ProductSearch::run() {
     const int k = static_cast<int>(item.node);
     const Node cur = nodes_[item.node];
     const double bound = total_area_ - cur.lost - cur.penalty;
-    if (best >= 0 && bound < score_of(best) - margin) break;  // nothing left within the margin
+    if (bound < floor_score()) break;  // nothing left within the margin
     if (cur.complete) {
       if (best < 0) {
-        best = k;
-        best_boxes = boxes_of(k);
-        continue;
+        if (incumbent >= 0 && score_of(incumbent) > score_of(k) + 1e-12) {
+          best = incumbent;  // the dive found better; this one may be an alternative
+          best_boxes = boxes_of(incumbent);
+        } else {
+          best = k;
+          best_boxes = boxes_of(k);
+          continue;
+        }
       }
-      if (same_layout(boxes_of(k), best_boxes, same_tol)) continue;
-      runner = k;
-      break;
+      // A materially different layout within the margin: keep it (up to kMaxAlternatives) so
+      // that the caller can rank the near-equal outline hypotheses by other evidence.
+      std::vector<FrameBox> boxes = boxes_of(k);
+      if (same_layout(boxes, best_boxes, same_tol)) continue;
+      bool dup = false;
+      for (const auto& a : sol.alternatives) dup = dup || same_layout(boxes, a, same_tol);
+      if (dup) continue;
+      if (runner < 0) runner = k;
+      sol.alternatives.push_back(std::move(boxes));
+      sol.alternative_scores.push_back(score_of(k));
+      if (sol.alternatives.size() >= kMaxAlternatives) break;
+      continue;
     }
+    if (best < 0 && (pops & 63U) == 0) dive(k);
     // Expand at the cursor cell.
     const int c = cur.cursor;
     const auto& list = placements_[static_cast<std::size_t>(c)];
@@ -399,32 +471,14 @@ ComponentSolution ProductSearch::run() {
         break;
       }
       if (pi >= 0 && !fits(occ(item.node), c, list[static_cast<std::size_t>(pi)])) continue;
-      Node child = cur;
-      child.parent = k;
-      child.placement = pi;
-      child.cell = c;
-      const std::size_t idx = nodes_.size();
-      pool_.resize(pool_.size() + words_);
-      std::copy(occ(item.node), occ(item.node) + words_, occ(idx));
-      std::uint64_t* o = occ(idx);
-      if (pi < 0) {
-        o[c >> 6] |= std::uint64_t{1} << (c & 63);
-        child.lost += cell_area_[static_cast<std::size_t>(c)];
-      } else {
-        const Placement& p = list[static_cast<std::size_t>(pi)];
-        const int i = c % nx_, j = c / nx_;
-        for (int row = j; row < p.j1; ++row) set_range(o, row * nx_ + i, p.i1 - i);
-        child.covered += p.area;
-        child.penalty += p.penalty;
-      }
-      ++child.cursor;
-      advance(child, o);
+      const std::size_t idx = make_child(k, pi);
+      const Node& child = nodes_[idx];
       const double child_bound = total_area_ - child.lost - child.penalty;
-      if (best >= 0 && child_bound < score_of(best) - margin) {
+      if (child_bound < floor_score() || total_area_ - child.lost < min_outline_) {
+        nodes_.pop_back();
         pool_.resize(pool_.size() - words_);
         continue;
       }
-      nodes_.push_back(child);
       const int ci = static_cast<int>(idx);
       if (score_of(ci) > score_of(best_seen) || (child.complete && !nodes_[static_cast<std::size_t>(best_seen)].complete &&
                                                  score_of(ci) >= score_of(best_seen))) {
@@ -434,11 +488,18 @@ ComponentSolution ProductSearch::run() {
     }
     if (exhausted) break;
   }
+  // The queue ran dry below the incumbent: the incumbent is the best (within the margin).
+  if (best < 0 && !exhausted && incumbent >= 0) {
+    best = incumbent;
+    best_boxes = boxes_of(incumbent);
+  }
+  if (best < 0 && incumbent >= 0 && score_of(incumbent) >= score_of(best_seen)) best_seen = incumbent;
   sol.visited = nodes_.size();
   sol.budget_exhausted = exhausted;
   const int chosen = best >= 0 ? best : best_seen;
   sol.boxes = best >= 0 ? best_boxes : boxes_of(chosen);
   sol.score = score_of(chosen);
+  sol.outline_score = nodes_[static_cast<std::size_t>(chosen)].covered;
   sol.found = !sol.boxes.empty();
   if (!sol.found) sol.reason = "no box of the recipe fits the outline";
   if (runner >= 0) {
@@ -453,8 +514,8 @@ ComponentSolution ProductSearch::run() {
 
 ComponentSolution search_product(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
                                  const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                                 const SeamTable* seams, const Deadline& deadline) {
-  ProductSearch search(frame_polygon, frame_edges, formats, params, seams, deadline);
+                                 const SeamTable* seams, const Deadline& deadline, double min_outline_score) {
+  ProductSearch search(frame_polygon, frame_edges, formats, params, seams, deadline, min_outline_score);
   return search.run();
 }
 

@@ -234,7 +234,11 @@ int main(int argc, char** argv) {
       const double iou = testing::polygon_iou(r.polygons, truth, 0.001);
       st.iou.push_back(iou);
       if (iou < 0.95) {
-        worst.push_back(f.name + ": IoU " + std::to_string(iou) + " " + f.scene.description);
+        double a_det = 0.0, a_truth = 0.0;
+        for (const auto& p : r.polygons) a_det += area(p);
+        for (const auto& q : truth) a_truth += std::abs(signed_area(q));
+        worst.push_back(f.name + ": IoU " + std::to_string(iou) + " area ratio " + std::to_string(a_det / a_truth) +
+                        " components " + std::to_string(r.polygons.size()) + " " + f.scene.description);
         dump();
       }
       st.height_mm.push_back(1000.0 * std::abs(f.truth.layer_plane.signed_distance(r.T_camera_layer.translation())));

@@ -1,0 +1,105 @@
+// palletctl detect: frames in, one JSON line per frame out (shared/spec/detections.md).
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <spdlog/spdlog.h>
+
+#include "commands.hpp"
+#include "detect_common.hpp"
+#include "palletd/detection.hpp"
+#include "palletd/detection_json.hpp"
+#include "palletd/frame_io.hpp"
+#include "palletd/layer_debug.hpp"
+#include "palletd/overlay.hpp"
+
+namespace palletd {
+
+namespace {
+
+struct DetectArgs {
+  std::vector<std::string> boxes;
+  std::string config;
+  int recipe = 0;
+  std::string overlay_dir;
+  std::string debug_dir;
+  std::vector<std::string> frames;
+};
+
+Detection bad_frame(const std::string& message) {
+  Detection d;
+  d.status = DetectionStatus::bad_frame;
+  d.message = message;
+  d.timing_ms["total"] = 0.0;
+  return d;
+}
+
+void write_file(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  if (!out) spdlog::error("cannot write {}", path.string());
+}
+
+int run_detect(const DetectArgs& a) {
+  DetectSetup setup = make_detect_setup(a.config, a.recipe, a.boxes);
+  if (setup.formats.empty()) {
+    spdlog::error("no box format: give --box LxW (mm) or --config FILE --recipe N");
+    return 2;
+  }
+  for (const auto* dir : {&a.overlay_dir, &a.debug_dir}) {
+    if (!dir->empty()) std::filesystem::create_directories(*dir);
+  }
+  RayTable rays;
+  int failed = 0;
+  for (const std::string& stem : expand_stems(a.frames)) {
+    Expected<Frame> frame = read_frame(stem);
+    Detection detection;
+    if (!frame) {
+      detection = bad_frame(frame.error());
+    } else {
+      if (setup.T_base_camera) frame->T_base_camera = setup.T_base_camera;
+      detection = detect(*frame, setup.formats, setup.params, &rays);
+    }
+    std::printf("%s\n", detection_to_json_line(detection, stem).c_str());
+    std::fflush(stdout);
+    if (detection.status != DetectionStatus::ok) ++failed;
+    if (!frame) continue;
+    const std::string name = std::filesystem::path(stem).filename().string();
+    if (!a.overlay_dir.empty())
+      write_file(std::filesystem::path(a.overlay_dir) / (name + ".overlay.png"), render_overlay_png(*frame, detection));
+    if (!a.debug_dir.empty()) {
+      // Re-run the first half with a trace: detect() itself keeps no intermediate images.
+      OrganizedCloud cloud;
+      to_organized_cloud(*frame, rays, cloud);
+      double smallest_m2 = 1e9;
+      for (const auto& f : setup.formats) smallest_m2 = std::min(smallest_m2, f.long_m * f.short_m);
+      LayerTrace trace;
+      const LayerResult layer = extract_layer(*frame, cloud, setup.params.plane, setup.params.layer,
+                                              setup.params.contour,
+                                              setup.params.layer.min_component_box_fraction * smallest_m2, &trace);
+      for (const auto& image : render_layer_debug_images(*frame, layer, trace)) {
+        cv::imwrite((std::filesystem::path(a.debug_dir) / (name + "." + image.first + ".png")).string(), image.second);
+      }
+    }
+  }
+  return failed == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+void register_detect(CLI::App& app) {
+  auto args = std::make_shared<DetectArgs>();
+  CLI::App* cmd = app.add_subcommand("detect", "Detect the top layer's boxes in frames; one JSON line per frame");
+  cmd->add_option("--box", args->boxes, "box format LONGxSHORT in mm (repeat; numbered 0, 1, ... in order)")->expected(1)->take_all();
+  cmd->add_option("--config", args->config, "palletd configuration (detection parameters, formats, camera_to_base)");
+  cmd->add_option("--recipe", args->recipe, "with --config and no --box: the recipe's formats");
+  cmd->add_option("--overlay", args->overlay_dir, "write STEM.overlay.png per frame into DIR");
+  cmd->add_option("--debug-dir", args->debug_dir, "write one PNG per detection stage and frame into DIR");
+  cmd->add_option("frames", args->frames, "frame stems (path without .depth.png) or folders of frames")->required();
+  cmd->callback([args] { throw CLI::RuntimeError(run_detect(*args)); });
+}
+
+}  // namespace palletd

@@ -1,0 +1,30 @@
+// Shared by `palletctl detect` and `palletctl eval`: box formats from --box / config, frame stems.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "palletd/config.hpp"
+#include "palletd/expected.hpp"
+#include "palletd/geometry.hpp"
+
+namespace palletd {
+
+/// "315x232" -> {0.315, 0.232, "315x232"} (long side first; sizes in mm).
+Expected<BoxFormat> parse_box_arg(const std::string& text);
+
+/// Expands arguments that name folders into the frame stems they hold (name order); other
+/// arguments are taken as stems as they are.
+std::vector<std::string> expand_stems(const std::vector<std::string>& args);
+
+/// Detection parameters and formats from --config / --recipe / --box. Throws CLI::RuntimeError
+/// with a logged message when they do not fit together.
+struct DetectSetup {
+  DetectionParams params;
+  std::vector<BoxFormat> formats;  ///< empty: take the truth file's recipe (eval only)
+  std::optional<Eigen::Isometry3d> T_base_camera;  ///< from the config, when it has one
+};
+DetectSetup make_detect_setup(const std::string& config_path, int recipe, const std::vector<std::string>& boxes);
+
+}  // namespace palletd
