@@ -160,3 +160,48 @@ TEST_CASE("a camera that is gone fails the trigger, drops CameraOK, and recovers
   CHECK((recovered->status.status_word & palletd::modbus::kStCameraOk) != 0);
   CHECK(service.health().reconnects >= 1);
 }
+
+TEST_CASE("a trigger while Busy sets MissedTrigger and counts; result ids advance per result") {
+  // A free-running camera at 0.5 Hz keeps the pipeline Busy until the frame timeout (the answer
+  // must be a frame captured after the trigger).
+  TempFrames frames(bundled_stems(1));
+  palletd::Config config = demo_config(frames.dir);
+  config.camera.replay.rate_hz = 0.5;
+  config.camera.frame_timeout_ms = 800;
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
+  REQUIRE(plc.connect().ok());
+  palletd::modbus::RegisterImage image{};
+  auto status_word = [&] {
+    REQUIRE(plc.read(palletd::modbus::kStatusStart, palletd::modbus::kStatusCount, image).ok());
+    return image[palletd::modbus::kRegStatusWord];
+  };
+  for (int i = 0; i < 100 && (status_word() & palletd::modbus::kStReady) == 0; ++i) std::this_thread::sleep_for(10ms);
+  const std::uint16_t trigger[3] = {palletd::modbus::kCtlTrigger, 1, 5};
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, trigger, 3).ok());
+  CHECK((status_word() & palletd::modbus::kStBusy) != 0);
+  const std::uint16_t zero = 0;
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, &zero, 1).ok());
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, trigger, 3).ok());  // while Busy
+  const std::uint16_t word = status_word();
+  CHECK((word & palletd::modbus::kStMissedTrigger) != 0);
+  CHECK(image[palletd::modbus::kRegMissedTriggers] == 1);
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, &zero, 1).ok());
+  // The first trigger ends in a frame timeout: result id 1, failed.
+  bool ready = false;
+  for (int i = 0; i < 300 && !ready; ++i) {
+    ready = (status_word() & palletd::modbus::kStResultReady) != 0;
+    if (!ready) std::this_thread::sleep_for(10ms);
+  }
+  REQUIRE(ready);
+  CHECK(image[palletd::modbus::kRegStatusResultId] == 1);
+  CHECK(image[palletd::modbus::kRegErrorCode] == static_cast<std::uint16_t>(ErrorCode::kFrameTimeout));
+  const std::uint16_t ack = palletd::modbus::kCtlResultAck;
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, &ack, 1).ok());
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, &zero, 1).ok());
+  auto second = plc.trigger(1, 6, 10s);
+  REQUIRE(second.ok());
+  CHECK(second->result.result_id == 2);
+  CHECK(second->result.record.request_id == 6);
+}

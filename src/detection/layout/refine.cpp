@@ -165,13 +165,25 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
           }
         } else if (!cf.table.empty()) {
           // Shared edge: centroid of the seam profile across the edge.
+          // Search twice the margin (the nominal grid can be off by the gaps between boxes),
+          // then take the centroid around the strongest line only.
           double sw = 0, s = 0;
           const double cell = seams->cell_m;
-          for (double off = -m; off <= m; off += cell) {
+          std::vector<std::pair<double, double>> profile;  // (position, mean seam along the edge)
+          for (double off = -2 * m; off <= 2 * m; off += cell) {
             const double p = pos + off;
             const Rect strip = axis == 0 ? Rect{p - cell / 2, lo, p + cell / 2, hi} : Rect{lo, p - cell / 2, hi, p + cell / 2};
-            const double v = view.mean(strip);
-            if (v > 0.2) {
+            profile.emplace_back(p, view.mean(strip));
+          }
+          double peak_p = pos, peak_v = 0.0;
+          for (const auto& [p, v] : profile) {
+            if (v > peak_v || (v == peak_v && std::abs(p - pos) < std::abs(peak_p - pos))) {
+              peak_v = v;
+              peak_p = p;
+            }
+          }
+          for (const auto& [p, v] : profile) {
+            if (v > 0.2 && std::abs(p - peak_p) <= 0.5 * m) {
               s += v * p;
               sw += v;
             }
