@@ -162,7 +162,9 @@ class Service::Impl {
     status->acquisition_id = static_cast<std::uint16_t>(c.frames & 0xFFFF);
     status->frames_grabbed = static_cast<std::uint32_t>(c.frames);
     status->camera_reconnects = static_cast<std::uint16_t>(std::min<std::uint64_t>(c.reconnects, 65535));
-    status->poses_in_camera_frame = !config()->T_base_camera.has_value();
+    // Base frame when calibrated in the config, or when the frames carry camera_to_base (replay of
+    // a recording made on a calibrated cell).
+    status->poses_in_camera_frame = !config()->T_base_camera.has_value() && !frames_have_base_.load();
     server_.publish_status(std::move(status));
   }
 
@@ -211,6 +213,7 @@ class Service::Impl {
       } else {
         Frame f = std::move(grabbed).value();
         if (cfg->T_base_camera) f.T_base_camera = cfg->T_base_camera;
+        frames_have_base_ = f.T_base_camera.has_value();
         frame = std::make_shared<const Frame>(std::move(f));
         run_detection(*cfg, *recipe, *frame, record, *snapshot);
       }
@@ -292,6 +295,7 @@ class Service::Impl {
   std::thread pipeline_;
   std::atomic<bool> running_{false};
   std::atomic<bool> snapshot_requested_{false};
+  std::atomic<bool> frames_have_base_{false};  ///< the last frame came with camera_to_base
   std::atomic<Clock::duration::rep> pipeline_alive_{0};
   std::atomic<std::uint64_t> triggers_{0}, results_{0}, failures_{0};
   mutable std::mutex latest_mutex_;
