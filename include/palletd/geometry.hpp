@@ -53,4 +53,8 @@ struct Box2d {
 /// Yaw in (-180, 180] degrees of a direction vector's projection onto the x-y plane.
 double yaw_deg_of(const Eigen::Vector3d& direction);
 
+/// Yaw of an undirected axis (a box's long side) in (-90, 90] degrees: the rotation of smaller
+/// magnitude that a gripper is given.
+double axis_yaw_deg(const Eigen::Vector3d& axis);
+
 }  // namespace palletd

@@ -34,4 +34,11 @@ double yaw_deg_of(const Eigen::Vector3d& direction) {
   return deg;
 }
 
+double axis_yaw_deg(const Eigen::Vector3d& axis) {
+  double deg = std::atan2(axis.y(), axis.x()) * 180.0 / M_PI;
+  while (deg > 90.0) deg -= 180.0;
+  while (deg <= -90.0) deg += 180.0;
+  return deg;
+}
+
 }  // namespace palletd

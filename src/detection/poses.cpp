@@ -6,13 +6,6 @@
 
 namespace palletd {
 
-double box_yaw_deg(const Eigen::Vector3d& long_axis_base) {
-  double yaw = std::atan2(long_axis_base.y(), long_axis_base.x()) * 180.0 / M_PI;
-  while (yaw > 90.0) yaw -= 180.0;
-  while (yaw <= -90.0) yaw += 180.0;
-  return yaw;
-}
-
 namespace {
 
 // Position used for ordering: base frame when calibrated, else the layer frame (x, y in the plane).
@@ -85,7 +78,7 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, cons
     d.score = i < scores.size() ? scores[i] : 0.0;
     if (T_base_camera) {
       d.base_position = *T_base_camera * d.center;
-      d.base_yaw_deg = box_yaw_deg(T_base_camera->linear() * d.long_axis);
+      d.base_yaw_deg = axis_yaw_deg(T_base_camera->linear() * d.long_axis);
     }
     out.push_back(std::move(d));
   }

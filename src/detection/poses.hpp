@@ -18,8 +18,4 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, cons
                                            const std::optional<Eigen::Isometry3d>& T_base_camera,
                                            PickOrder order);
 
-/// Yaw of a box's long axis about the base z axis [deg], folded to (-90, 90]: a box's long axis has
-/// no sign, so the gripper is given the rotation of smaller magnitude.
-double box_yaw_deg(const Eigen::Vector3d& long_axis_base);
-
 }  // namespace palletd

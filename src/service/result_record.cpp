@@ -18,14 +18,6 @@ modbus::DetectionFailure failure_of(DetectionStatus status) {
 
 namespace {
 
-// Camera frame: the yaw of the long axis seen from the camera, folded to (-90, 90].
-double camera_yaw_deg(const Eigen::Vector3d& long_axis) {
-  double yaw = std::atan2(long_axis.y(), long_axis.x()) * 180.0 / M_PI;
-  while (yaw > 90.0) yaw -= 180.0;
-  while (yaw <= -90.0) yaw += 180.0;
-  return yaw;
-}
-
 // Layer "height": base z of the layer under the boxes when calibrated; else the depth at which
 // the optical axis meets the layer plane [m].
 double layer_z_m(const Detection& detection, bool base_frame) {
@@ -61,7 +53,7 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
     out.x_m = p.x();
     out.y_m = p.y();
     out.z_m = p.z();
-    out.yaw_deg = in_base && b.base_yaw_deg ? *b.base_yaw_deg : camera_yaw_deg(b.long_axis);
+    out.yaw_deg = in_base && b.base_yaw_deg ? *b.base_yaw_deg : axis_yaw_deg(b.long_axis);
     out.format = static_cast<std::uint16_t>(std::max(0, b.format));
     out.score = b.score;
     out.pick_index = static_cast<std::uint16_t>(b.pick_index + 1);

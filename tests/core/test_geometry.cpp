@@ -23,3 +23,12 @@ TEST_CASE("box corners are counter-clockwise around the centre") {
   CHECK(c[0].x() == Approx(1.1));
   CHECK(c[0].y() == Approx(1.8));
 }
+
+TEST_CASE("an undirected axis' yaw is folded to -90 < yaw <= 90") {
+  CHECK(palletd::axis_yaw_deg({1.0, 0.0, 0.0}) == Approx(0.0));
+  CHECK(palletd::axis_yaw_deg({-1.0, 0.0, 0.0}) == Approx(0.0).margin(1e-9));
+  CHECK(palletd::axis_yaw_deg({0.0, 1.0, 0.0}) == Approx(90.0));
+  CHECK(palletd::axis_yaw_deg({0.0, -1.0, 0.0}) == Approx(90.0));
+  CHECK(palletd::axis_yaw_deg({1.0, -1.0, 0.5}) == Approx(-45.0));
+  CHECK(palletd::axis_yaw_deg({-1.0, 1.0, 0.0}) == Approx(-45.0));
+}

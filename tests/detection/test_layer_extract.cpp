@@ -101,7 +101,7 @@ TEST_CASE("a single box gives four near-orthogonal corners close to the truth") 
   }
 }
 
-TEST_CASE("a hole 1.5 pixel pitches wide is found; clusters 30 mm apart stay apart") {
+TEST_CASE("a hole 1.5 pixel pitches wide is found, clusters 30 mm apart stay apart") {
   // Seen from above: in oblique views the side walls inside a narrow gap lie within the band and
   // bridge it (the benchmark's sweep shows the tilted case).
   SynthCamera cam;
@@ -136,7 +136,7 @@ TEST_CASE("a hole 1.5 pixel pitches wide is found; clusters 30 mm apart stay apa
   CHECK(rt.polygons.size() == 2);
 }
 
-TEST_CASE("dropouts inside faces make no border; flying pixels do not bend the outline") {
+TEST_CASE("dropouts inside faces make no border, flying pixels do not bend the outline") {
   SynthScene s;
   SynthBox b;
   b.long_m = 0.6;

@@ -115,7 +115,7 @@ TEST_CASE("replay plays frames in name order, one per trigger, and loops") {
   CHECK(cam->counters().frames == 4);
 }
 
-TEST_CASE("replay once ends with an error; a set rate paces frames") {
+TEST_CASE("replay once ends with an error, a set rate paces frames") {
   TempDir dir("rate");
   write_frames(dir, {"f0", "f1", "f2"});
   auto cam = make_camera(replay_config(dir, false, 50.0));

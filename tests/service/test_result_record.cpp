@@ -53,7 +53,7 @@ TEST_CASE("base-frame poses are used when every box carries one") {
   CHECK(r.layer_z_m == Approx(0.8));
 }
 
-TEST_CASE("failed detections carry the failure as error detail; an empty layout is 'no boxes'") {
+TEST_CASE("failed detections carry the failure as error detail, an empty layout is 'no boxes'") {
   Detection failed;
   failed.status = DetectionStatus::no_plane;
   const auto r = palletd::to_result_record(failed, false);

@@ -161,7 +161,7 @@ TEST_CASE("a camera that is gone fails the trigger, drops CameraOK, and recovers
   CHECK(service.health().reconnects >= 1);
 }
 
-TEST_CASE("a trigger while Busy sets MissedTrigger and counts; result ids advance per result") {
+TEST_CASE("a trigger while Busy sets MissedTrigger and counts, result ids advance per result") {
   // A free-running camera at 0.5 Hz keeps the pipeline Busy until the frame timeout (the answer
   // must be a frame captured after the trigger).
   TempFrames frames(bundled_stems(1));
@@ -204,4 +204,44 @@ TEST_CASE("a trigger while Busy sets MissedTrigger and counts; result ids advanc
   REQUIRE(second.ok());
   CHECK(second->result.result_id == 2);
   CHECK(second->result.record.request_id == 6);
+}
+
+TEST_CASE("SaveSnapshot stores the next triggered frame with its result and overlay") {
+  TempFrames frames(bundled_stems(1));
+  palletd::Config config = demo_config(frames.dir);
+  const fs::path recordings = frames.dir / "recordings";
+  config.recording.enabled = true;
+  config.recording.directory = recordings.string();
+  config.recording.every_trigger = false;
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
+  REQUIRE(plc.connect().ok());
+  const auto recipe = static_cast<std::uint16_t>(config.recipes.front().number);
+  // Without the bit nothing is recorded.
+  REQUIRE(plc.trigger(recipe, 1, 10s).ok());
+  auto count = [&](const std::string& suffix) {
+    std::size_t n = 0;
+    if (!fs::exists(recordings)) return n;
+    for (const auto& e : fs::directory_iterator(recordings)) {
+      const std::string name = e.path().filename().string();
+      if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) ++n;
+    }
+    return n;
+  };
+  CHECK(count(".depth.png") == 0);
+  const std::uint16_t snapshot = palletd::modbus::kCtlSaveSnapshot, zero = 0;
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, &snapshot, 1).ok());
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, &zero, 1).ok());
+  std::this_thread::sleep_for(300ms);  // the event reaches the pipeline
+  REQUIRE(plc.trigger(recipe, 2, 10s).ok());
+  for (int i = 0; i < 100 && count(".depth.png") == 0; ++i) std::this_thread::sleep_for(20ms);
+  CHECK(count(".depth.png") == 1);
+  CHECK(count(".json") >= 2);  // frame metadata and the detection
+  CHECK(count(".overlay.png") == 1);
+  // And over the service API (the status page's POST).
+  CHECK(service.request_snapshot().ok());
+  REQUIRE(plc.trigger(recipe, 3, 10s).ok());
+  for (int i = 0; i < 100 && count(".depth.png") < 2; ++i) std::this_thread::sleep_for(20ms);
+  CHECK(count(".depth.png") == 2);
 }

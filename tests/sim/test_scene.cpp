@@ -24,7 +24,7 @@ std::vector<std::vector<BoxFormatSpec>> format_sets() {
 
 }  // namespace
 
-TEST_CASE("parse_format reads LONGxSHORT[xHEIGHT] and rejects garbage") {
+TEST_CASE("parse_format reads LONGxSHORT and LONGxSHORTxHEIGHT and rejects garbage") {
   auto f = parse_format("232x315x180");
   REQUIRE(f.ok());
   CHECK(f->name == "315x232");
