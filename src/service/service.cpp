@@ -222,6 +222,8 @@ class Service::Impl {
     snapshot->latency_ms = ms_between(event.time, done);
     snapshot->time = std::chrono::system_clock::now();
     snapshot->frame = frame;
+    // The format flags (base or camera frame) must describe this result when ResultReady rises.
+    publish_status(acquisition_->camera());
     server_.publish_result(std::make_shared<const modbus::ResultRecord>(record));
     results_.fetch_add(1);
     {
