@@ -142,6 +142,30 @@ TEST_CASE("palletd notifies systemd, answers a trigger, survives a broken reload
   REQUIRE(second.ok());
   CHECK(second->result.record.request_id == 12);
 
+  // A good file on SIGHUP: a recipe added there is known to the next trigger.
+  {
+    std::ifstream in(std::string(PALLETD_SOURCE_DIR) + "/config/demo.yaml");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string anchor = "recipes:\n";
+    const auto at = text.find(anchor);
+    REQUIRE(at != std::string::npos);
+    text.insert(at + anchor.size(), "  - {number: 42, name: added, formats: [600x400]}\n");
+    std::ofstream(config) << text;
+  }
+  auto unknown = plc.trigger(42, 13, 10s);
+  REQUIRE(unknown.ok());
+  CHECK(unknown->status.error == palletd::modbus::ErrorCode::kUnknownRecipe);
+  REQUIRE(::kill(daemon.pid, SIGHUP) == 0);
+  CHECK(notify.wait_for("RELOADING=1", 5s));  // skips what the first reload left in the socket
+  CHECK(notify.wait_for("READY=1", 5s));
+  const std::uint16_t clear = palletd::modbus::kCtlClearError, zero = 0;
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, &clear, 1).ok());
+  REQUIRE(plc.write(palletd::modbus::kRegControlWord, &zero, 1).ok());
+  auto known = plc.trigger(42, 14, 10s);
+  REQUIRE(known.ok());
+  CHECK(known->status.error != palletd::modbus::ErrorCode::kUnknownRecipe);
+  CHECK(known->result.record.recipe == 42);
+
   const auto t0 = std::chrono::steady_clock::now();
   REQUIRE(::kill(daemon.pid, SIGTERM) == 0);
   const int code = daemon.wait_exit(3s);
