@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
+#include "palletd/evaluation.hpp"
 #include "palletd/modbus/client.hpp"
 
 namespace palletd {
@@ -80,13 +81,11 @@ int run_trigger(const TriggerArgs& a) {
     if (result->result.record.status == modbus::ResultStatus::kFailed) ++failures;
   }
   if (a.count > 1) {
-    std::sort(handshake_ms.begin(), handshake_ms.end());
-    auto pct = [&](double p) {
-      if (handshake_ms.empty()) return 0.0;
-      return handshake_ms[static_cast<std::size_t>(p / 100.0 * static_cast<double>(handshake_ms.size() - 1))];
-    };
+    // The same interpolating percentile as `palletctl eval` and the benchmarks.
+    auto pct = [&](double p) { return handshake_ms.empty() ? 0.0 : percentile(handshake_ms, p); };
+    const double max_ms = handshake_ms.empty() ? 0.0 : *std::max_element(handshake_ms.begin(), handshake_ms.end());
     std::printf("%d trigger(s), %d failed; trigger-to-ResultReady p50 %.1f ms, p99 %.1f ms, max %.1f ms\n", a.count,
-                failures, pct(50), pct(99), handshake_ms.empty() ? 0.0 : handshake_ms.back());
+                failures, pct(50), pct(99), max_ms);
   }
   return failures == 0 ? 0 : 1;
 }
