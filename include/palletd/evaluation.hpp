@@ -26,6 +26,10 @@ struct FrameEval {
   bool formats_right = true;
   bool exact = false;         ///< no miss, no extra, all within tolerance, right formats
   double runtime_ms = 0.0;
+  /// Whether the truth's own outline determines its layout: 0 = yes (unambiguous: the
+  /// detection must be exact), 1 = no (another layout fits the outline as well: exact or
+  /// flagged ambiguous is right), -1 = not checked.
+  int outline_tied = -1;
 };
 
 /// Matches detected to truth boxes (Hungarian assignment on centre distance, gated at a quarter
@@ -42,6 +46,12 @@ struct EvalSummary {
   double yaw_median_deg = 0.0, yaw_p95_deg = 0.0;
   double pairwise_mean_mm = 0.0;
   double runtime_median_ms = 0.0, runtime_p95_ms = 0.0;
+  /// Ambiguity-aware counts over frames with outline_tied checked: unambiguous frames and how
+  /// many were exact (and how many of them flagged ambiguous); tied frames resolved exactly,
+  /// flagged ambiguous (not exact), or wrong and unflagged.
+  std::size_t unambiguous_frames = 0, unambiguous_exact = 0, unambiguous_flagged = 0;
+  std::size_t tied_frames = 0, tied_resolved = 0, tied_flagged = 0, tied_wrong = 0;
+  double unambiguous_exact_rate = 0.0;
 };
 
 EvalSummary summarize(const std::vector<FrameEval>& frames);

@@ -22,10 +22,10 @@ const char* to_string(DetectionStatus status);
 /// Top plane search (stage 1).
 struct PlaneParams {
   double max_tilt_deg = 35.0;          ///< planes whose normal is further than this from the view axis are ignored
-  double ransac_distance_m = 0.008;    ///< RANSAC inlier band [m]
+  double ransac_distance_m = 0.008;    ///< smallest RANSAC inlier band [m] (wider when the measured depth noise needs it)
   int ransac_max_iterations = 200;
   double min_plane_area_m2 = 0.02;     ///< a plane smaller than this is no layer [m^2]
-  std::uint32_t seed = 12345;          ///< unused: PCL RANSAC runs on its own fixed seed (same frame, same result)
+  std::uint32_t seed = 12345;          ///< RANSAC sampling seed (same frame and seed, same result)
   int ransac_stride_px = 0;            ///< RANSAC on every n-th pixel in u and v (0: ~2500 points); refit uses all
   int max_planes = 6;                  ///< at most this many RANSAC rounds while looking for the top
   double min_depth_m = 0.1;            ///< depths outside [min, max] are treated as invalid [m]
@@ -34,7 +34,7 @@ struct PlaneParams {
 
 /// Layer points, mask, components (stages 2-4).
 struct LayerParams {
-  double passthrough_tolerance_m = 0.0;  ///< |z| band around the plane [m]; 0 = derived from noise
+  double passthrough_tolerance_m = 0.0;  ///< |z| band around the plane [m]; 0 = 3 sigma + 4 mm of the measured noise at each depth
   double min_component_box_fraction = 0.5;  ///< components smaller than this share of the smallest box are dropped
   int min_hole_area_px = 8;  ///< holes whose pixel contour encloses at most this area [px^2] are dropouts
   bool reject_clipped = false;  ///< true: a layer touching the image border ends in no_layer
@@ -58,8 +58,8 @@ struct LayerDiagnostics {
   std::size_t components = 0;          ///< components kept
   std::size_t dropped_components = 0;  ///< components smaller than the minimum area
   std::size_t plane_candidates = 0;    ///< large enough planes seen while looking for the top
-  double plane_sigma_m = 0.0;          ///< RMS residual of the refit [m]
-  double passthrough_tolerance_m = 0.0;  ///< |z| band used [m]
+  double plane_sigma_m = 0.0;          ///< robust sigma (1.4826 MAD) of the residuals near the plane [m]
+  double passthrough_tolerance_m = 0.0;  ///< widest |z| band used [m] (the band follows the depth)
   double d_max_m = 0.0;                ///< crust pruning length used [m]
   bool touches_image_border = false;
   double t_plane_ms = 0.0, t_layer_ms = 0.0, t_contour_ms = 0.0;

@@ -162,7 +162,24 @@ EvalSummary summarize(const std::vector<FrameEval>& frames) {
     yaw.insert(yaw.end(), f.yaw_errors_deg.begin(), f.yaw_errors_deg.end());
     runtime.push_back(f.runtime_ms);
     if (f.matched >= 2) pairwise.push_back(f.pairwise_error_mm);
+    if (f.outline_tied == 0) {
+      ++s.unambiguous_frames;
+      if (f.exact) ++s.unambiguous_exact;
+      if (f.ambiguous) ++s.unambiguous_flagged;
+    } else if (f.outline_tied == 1) {
+      ++s.tied_frames;
+      if (f.exact) {
+        ++s.tied_resolved;
+      } else if (f.ambiguous) {
+        ++s.tied_flagged;
+      } else {
+        ++s.tied_wrong;
+      }
+    }
   }
+  s.unambiguous_exact_rate = s.unambiguous_frames > 0 ? static_cast<double>(s.unambiguous_exact) /
+                                                            static_cast<double>(s.unambiguous_frames)
+                                                      : 0.0;
   s.precision = s.detected_boxes > 0 ? static_cast<double>(s.matched) / static_cast<double>(s.detected_boxes) : 0.0;
   s.recall = s.truth_boxes > 0 ? static_cast<double>(s.matched) / static_cast<double>(s.truth_boxes) : 0.0;
   s.exact_rate = s.frames > 0 ? static_cast<double>(s.exact_frames) / static_cast<double>(s.frames) : 0.0;

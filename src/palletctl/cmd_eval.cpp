@@ -3,6 +3,8 @@
 #include <filesystem>
 
 #include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -11,6 +13,7 @@
 #include "palletd/detection.hpp"
 #include "palletd/evaluation.hpp"
 #include "palletd/frame_io.hpp"
+#include "palletd/layout.hpp"
 
 namespace palletd {
 
@@ -25,6 +28,96 @@ struct EvalArgs {
   std::vector<std::string> dirs;
 };
 
+/// Whether the truth's layout is the only one its own outline supports: the truth boxes are drawn
+/// in their layer (gaps between neighbours bridged), the outline traced, and the product search
+/// run on that outline alone (no seams). 1 = another layout fits as well (or better), 0 = the
+/// outline determines the truth, -1 = not checked.
+int truth_outline_tied(const Truth& truth, const std::vector<BoxFormat>& formats, const std::vector<std::string>& names) {
+  if (truth.boxes.empty() || formats.empty()) return -1;
+  const TruthBox& b0 = truth.boxes.front();
+  const Eigen::Vector3d n = b0.normal.normalized();
+  Eigen::Vector3d e1 = b0.long_axis - b0.long_axis.dot(n) * n;
+  if (e1.norm() < 1e-9) return -1;
+  e1.normalize();
+  const Eigen::Vector3d e2 = n.cross(e1);
+  struct Rect2 {
+    double x0, y0, x1, y1;
+  };
+  std::vector<Rect2> rects;
+  std::vector<Box2d> boxes;
+  double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
+  for (const TruthBox& tb : truth.boxes) {
+    const Eigen::Vector3d c = tb.center - b0.center;
+    const Eigen::Vector2d u(tb.long_axis.dot(e1), tb.long_axis.dot(e2));
+    const bool along_x = std::abs(u.x()) >= std::abs(u.y());
+    const double hx = (along_x ? tb.long_m : tb.short_m) / 2, hy = (along_x ? tb.short_m : tb.long_m) / 2;
+    const double x = c.dot(e1), y = c.dot(e2);
+    rects.push_back({x - hx, y - hy, x + hx, y + hy});
+    bx0 = std::min(bx0, x - hx); bx1 = std::max(bx1, x + hx);
+    by0 = std::min(by0, y - hy); by1 = std::max(by1, y + hy);
+    Box2d b;
+    b.center = {x, y};
+    b.yaw_rad = std::atan2(u.y(), u.x());
+    b.long_m = tb.long_m;
+    b.short_m = tb.short_m;
+    b.format = -1;
+    for (std::size_t i = 0; i < formats.size(); ++i) {
+      const bool by_name = i < names.size() && !names[i].empty() && names[i] == tb.format;
+      const bool by_size = std::abs(formats[i].long_m - tb.long_m) < 0.005 && std::abs(formats[i].short_m - tb.short_m) < 0.005;
+      if (by_name || (b.format < 0 && by_size)) b.format = static_cast<int>(i);
+    }
+    boxes.push_back(b);
+  }
+  // Raster in the layout's own frame (boxes axis-aligned); gaps up to 2 * bridge are closed.
+  const double cell = 0.002, bridge = 0.008, pad = 0.05;
+  const int w = static_cast<int>((bx1 - bx0 + 2 * pad) / cell) + 1, h = static_cast<int>((by1 - by0 + 2 * pad) / cell) + 1;
+  if (w <= 0 || h <= 0 || static_cast<double>(w) * h > 2.5e7) return -1;
+  cv::Mat mask = cv::Mat::zeros(h, w, CV_8U);
+  auto px = [&](double x) { return static_cast<int>(std::lround((x - bx0 + pad) / cell)); };
+  auto py = [&](double y) { return static_cast<int>(std::lround((y - by0 + pad) / cell)); };
+  for (const auto& r : rects) {
+    cv::rectangle(mask, cv::Point(px(r.x0 - bridge), py(r.y0 - bridge)), cv::Point(px(r.x1 + bridge) - 1, py(r.y1 + bridge) - 1),
+                  cv::Scalar(255), cv::FILLED);
+  }
+  const int k = static_cast<int>(std::lround(bridge / cell));
+  cv::erode(mask, mask, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * k + 1, 2 * k + 1)));
+  std::vector<std::vector<cv::Point>> contours;
+  std::vector<cv::Vec4i> hierarchy;
+  cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
+  auto ring_of = [&](const std::vector<cv::Point>& c) {
+    Ring2d ring;
+    for (const auto& p : c) ring.emplace_back(bx0 - pad + (p.x + 0.5) * cell, by0 - pad + (p.y + 0.5) * cell);
+    return ring;
+  };
+  std::vector<PolygonWithHoles> polys;
+  for (std::size_t i = 0; i < contours.size(); ++i) {
+    if (hierarchy[i][3] >= 0) continue;
+    PolygonWithHoles poly;
+    poly.outer = ring_of(contours[i]);
+    for (int c = hierarchy[i][2]; c >= 0; c = hierarchy[static_cast<std::size_t>(c)][0]) {
+      poly.holes.push_back(ring_of(contours[static_cast<std::size_t>(c)]));
+    }
+    polys.push_back(std::move(poly));
+  }
+  LayoutParams p;
+  p.time_budget_ms = 1000.0;
+  const LayoutResult r = find_layout(polys, formats, p, nullptr);
+  if (r.status != DetectionStatus::ok || r.ambiguous || r.boxes.size() != boxes.size()) return 1;
+  std::vector<bool> used(r.boxes.size(), false);
+  for (const Box2d& t : boxes) {
+    bool hit = false;
+    for (std::size_t j = 0; j < r.boxes.size() && !hit; ++j) {
+      if (used[j] || r.boxes[j].format != t.format || (r.boxes[j].center - t.center).norm() > 0.25 * t.short_m) continue;
+      const double dyaw = std::abs(std::remainder(r.boxes[j].yaw_rad - t.yaw_rad, M_PI));
+      if (dyaw > M_PI / 4) continue;
+      used[j] = true;
+      hit = true;
+    }
+    if (!hit) return 1;
+  }
+  return 0;
+}
+
 nlohmann::json to_json(const FrameEval& f) {
   return {{"frame", f.frame},
           {"status", f.status},
@@ -37,6 +130,7 @@ nlohmann::json to_json(const FrameEval& f) {
           {"pairwise_error_mm", f.pairwise_error_mm},
           {"formats_right", f.formats_right},
           {"exact", f.exact},
+          {"outline_tied", f.outline_tied},
           {"runtime_ms", f.runtime_ms}};
 }
 
@@ -58,7 +152,15 @@ nlohmann::json to_json(const EvalSummary& s) {
           {"yaw_p95_deg", s.yaw_p95_deg},
           {"pairwise_mean_mm", s.pairwise_mean_mm},
           {"runtime_median_ms", s.runtime_median_ms},
-          {"runtime_p95_ms", s.runtime_p95_ms}};
+          {"runtime_p95_ms", s.runtime_p95_ms},
+          {"unambiguous_frames", s.unambiguous_frames},
+          {"unambiguous_exact", s.unambiguous_exact},
+          {"unambiguous_exact_rate", s.unambiguous_exact_rate},
+          {"unambiguous_flagged", s.unambiguous_flagged},
+          {"tied_frames", s.tied_frames},
+          {"tied_resolved", s.tied_resolved},
+          {"tied_flagged", s.tied_flagged},
+          {"tied_wrong", s.tied_wrong}};
 }
 
 int run_eval(const EvalArgs& a) {
@@ -99,14 +201,15 @@ int run_eval(const EvalArgs& a) {
     }
     FrameEval e = evaluate_frame(detection, *truth, names);
     e.frame = stem;
+    e.outline_tied = truth_outline_tied(*truth, formats, names);
     if (a.json) {
       std::printf("%s\n", to_json(e).dump().c_str());
     } else if (!a.quiet) {
       const double pos = percentile(e.position_errors_mm, 50), yaw = percentile(e.yaw_errors_deg, 50);
-      std::printf("%-48s %-9s %5zu %5zu %5zu %8.2f %8.2f %8.2f %5s %8.1f%s\n",
+      std::printf("%-48s %-9s %5zu %5zu %5zu %8.2f %8.2f %8.2f %5s %8.1f%s%s\n",
                   std::filesystem::path(stem).filename().string().c_str(), e.status.c_str(), e.truth_boxes,
                   e.detected_boxes, e.matched, pos, yaw, e.pairwise_error_mm, e.exact ? "yes" : "no", e.runtime_ms,
-                  e.ambiguous ? "  ambiguous" : "");
+                  e.ambiguous ? "  ambiguous" : "", e.outline_tied == 1 ? "  (outline tied)" : "");
     }
     std::fflush(stdout);
     results.push_back(std::move(e));
@@ -117,6 +220,10 @@ int run_eval(const EvalArgs& a) {
   } else {
     std::printf("\nframes %zu (ok %zu, ambiguous %zu) | exact layouts %zu (%.1f %%) | precision %.4f recall %.4f\n",
                 s.frames, s.ok_frames, s.ambiguous_frames, s.exact_frames, 100.0 * s.exact_rate, s.precision, s.recall);
+    std::printf("unambiguous (outline determines the truth) %zu: exact %zu (%.1f %%), flagged ambiguous %zu | "
+                "outline-tied %zu: resolved %zu, flagged %zu, wrong %zu\n",
+                s.unambiguous_frames, s.unambiguous_exact, 100.0 * s.unambiguous_exact_rate, s.unambiguous_flagged,
+                s.tied_frames, s.tied_resolved, s.tied_flagged, s.tied_wrong);
     std::printf("position error median %.2f mm, p95 %.2f mm, max %.2f mm | yaw median %.3f deg, p95 %.3f deg\n",
                 s.position_median_mm, s.position_p95_mm, s.position_max_mm, s.yaw_median_deg, s.yaw_p95_deg);
     std::printf("pairwise centroid-distance error (paper metric) mean %.2f mm | runtime median %.1f ms, p95 %.1f ms\n",

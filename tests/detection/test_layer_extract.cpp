@@ -136,6 +136,70 @@ TEST_CASE("a hole 1.5 pixel pitches wide is found, clusters 30 mm apart stay apa
   CHECK(rt.polygons.size() == 2);
 }
 
+TEST_CASE("a missing box inside the layer is one hole ring with the box's area") {
+  // 3x3 layer of touching boxes, the centre box taken away: the lower layer shows through.
+  const double gap = 0.0;
+  SynthScene scene = grid_layer(3, 3, gap, 1.0, true);
+  const std::size_t centre = 5;  // boxes[0] is the lower layer, then column-major 3x3
+  const Eigen::Vector2d centre_xy = scene.boxes[centre].center;
+  scene.boxes.erase(scene.boxes.begin() + static_cast<std::ptrdiff_t>(centre));
+  scene.top.clear();
+  for (std::size_t i = 1; i < scene.boxes.size(); ++i) scene.top.push_back(i);
+  const double hole_area = (0.315 + 2 * gap) * (0.232 + 2 * gap);
+  for (const double tilt : {0.0, 20.0}) {
+    SynthCamera cam;
+    cam.tilt_deg = tilt;
+    cam.tilt_azimuth_deg = 35.0;
+    cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+    const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+    const LayerResult r = run(f);
+    INFO("tilt " << tilt << " reason " << r.reason);
+    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.polygons.size() == 1);
+    REQUIRE(r.polygons[0].holes.size() == 1);
+    const Ring2d& hole = r.polygons[0].holes[0];
+    CHECK(signed_area(hole) < 0.0);  // holes run clockwise
+    CHECK(std::abs(signed_area(hole)) == Approx(hole_area).epsilon(0.08));
+    // Where the box was: the hole's vertex mean lies at the missing box's centre.
+    const Eigen::Isometry3d T_layer_world = r.T_camera_layer.inverse() * f.T_world_camera.inverse();
+    const Eigen::Vector2d expected = (T_layer_world * Eigen::Vector3d(centre_xy.x(), centre_xy.y(), 1.0)).head<2>();
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (const auto& q : hole) mean += q;
+    mean /= static_cast<double>(hole.size());
+    CHECK((mean - expected).norm() < 0.01);
+    CHECK(polygon_iou(r.polygons, truth_in_layer(scene, f, r.T_camera_layer)) > 0.95);
+  }
+}
+
+TEST_CASE("clusters at a tilt: apart when the gap shows more than the band below the top") {
+  // Seen obliquely, the far box's side wall fills the gap; its top band-deep strip is within the
+  // passthrough band, i.e. band x tan(tilt) of the gap look like layer. Where the rest of the gap
+  // is at least two pixel footprints wide, the clusters must stay apart; where nothing of the gap
+  // is deeper than the band, depth cannot separate them (the layout search splits such a cluster).
+  SynthCamera cam;
+  cam.tilt_deg = 20.0;
+  cam.tilt_azimuth_deg = 0.0;  // looking along the boxes' long axis: the gap's wall faces the camera
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const double tan_tilt = std::tan(cam.tilt_deg * kPi / 180.0);
+  const double pitch_m = cam.distance_m / cam.fx / std::cos(cam.tilt_deg * kPi / 180.0);
+  // Band from a first look at the scene (the detector measures it from the data).
+  const SynthFrame probe = render_synthetic(grid_layer(2, 1, 0.05, 1.0, true), cam, SynthNoise{});
+  const LayerResult p = run(probe);
+  REQUIRE(p.status == DetectionStatus::ok);
+  const double band = p.diagnostics.passthrough_tolerance_m;
+  CHECK(band < 0.02);
+  for (std::uint32_t seed = 1; seed <= 3; ++seed) {
+    SynthNoise noise;
+    noise.seed = seed;
+    const double gap = band * tan_tilt + 2.0 * pitch_m;
+    const SynthFrame f = render_synthetic(grid_layer(2, 1, gap, 1.0, true), cam, noise);
+    const LayerResult r = run(f);
+    INFO("seed " << seed << " gap " << gap * 1000 << " mm, band " << band * 1000 << " mm");
+    REQUIRE(r.status == DetectionStatus::ok);
+    CHECK(r.polygons.size() == 2);
+  }
+}
+
 TEST_CASE("dropouts inside faces make no border, flying pixels do not bend the outline") {
   SynthScene s;
   SynthBox b;

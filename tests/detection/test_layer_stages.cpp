@@ -124,4 +124,45 @@ TEST_CASE("top plane: nearest large plane wins, a small stray in front does not"
   CHECK(std::abs(top.plane.d - f.top_plane_camera.d) < 0.003);
   CHECK(top.plane.normal.dot(f.top_plane_camera.normal) > std::cos(0.5 * kPi / 180.0));
   CHECK(top.sigma_m < 0.004);
+  // The RANSAC seed changes the samples drawn, not the plane found.
+  for (const std::uint32_t seed : {1U, 2U, 99U}) {
+    PlaneParams seeded;
+    seeded.seed = seed;
+    const layer::TopPlane other = layer::find_top_plane(f.cloud, f.frame.intrinsics, seeded);
+    REQUIRE(other.status == DetectionStatus::ok);
+    CHECK(std::abs(other.plane.d - f.top_plane_camera.d) < 0.003);
+  }
+}
+
+TEST_CASE("noise per depth: the band widens where the measured noise does") {
+  // Depth noise growing with depth (as structured light's does with its square): a tilted view
+  // spans about 0.6 m of depth over the layer, the measured sigma must follow it.
+  SynthScene s = grid_layer(3, 3, 0.0, 1.0, true);
+  SynthCamera cam;
+  cam.tilt_deg = 30.0;
+  cam.distance_m = 2.5;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  SynthNoise quiet;
+  quiet.sigma_m = 0.0;
+  SynthFrame f = render_synthetic(s, cam, quiet);
+  std::mt19937 rng(5);
+  std::normal_distribution<float> g(0.0F, 1.0F);
+  for (auto& p : f.cloud.points) {
+    if (!p.allFinite()) continue;
+    const float sigma = 0.0015F * p.z() * p.z();  // 6 mm at 2 m, 13.5 mm at 3 m
+    p *= 1.0F + sigma * g(rng) / p.z();          // along the ray
+  }
+  const layer::TopPlane top = layer::find_top_plane(f.cloud, f.frame.intrinsics, PlaneParams{});
+  REQUIRE(top.status == DetectionStatus::ok);
+  REQUIRE(top.noise.bin_z_m.size() >= 2);
+  const double z_near = top.noise.bin_z_m.front(), z_far = top.noise.bin_z_m.back();
+  REQUIRE(z_far - z_near > 0.2);
+  // Sigma along the normal ~ sigma along the ray x cos(view angle): compare ratios, not values.
+  const double ratio = top.noise.sigma_at(z_far) / top.noise.sigma_at(z_near);
+  const double expected = (z_far * z_far) / (z_near * z_near);
+  CHECK(ratio == Approx(expected).epsilon(0.25));
+  const layer::BandTable band(top.noise, 0.0);
+  CHECK(band.at(static_cast<float>(z_far)) > band.at(static_cast<float>(z_near)));
+  CHECK(band.max_m() <= layer::kMaxBand);
+  CHECK(std::abs(top.plane.d - f.top_plane_camera.d) < 0.003);
 }

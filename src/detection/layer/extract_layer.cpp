@@ -40,17 +40,28 @@ double signed_distance_at(const OrganizedCloud& cloud, const Plane& plane, int u
 /// its off-layer 4-neighbours. A sample lies where the edge crosses the pixel pair: half-way by
 /// default; when the depth steps down beyond the edge, the mixed depths of the pair (their share
 /// of the top face) move it to sub-pixel precision.
+/// Edges facing the camera are seen with the box's side wall below them: wall pixels within the
+/// band lie below the plane, and the ray through them meets the plane outside the face (by
+/// depth x tan of the view angle). There the measured point, projected along the normal, gives
+/// the edge: a wall point projects onto the edge line, a top point onto itself (then the edge is
+/// up to half a pixel further out, by how far the point lies below the plane).
 RingGeometry ring_geometry(const layer::RingPixels& ring, const cv::Mat& mask, const layer::PixelToLayer& to_layer,
-                           const OrganizedCloud& cloud, const Plane& plane, double tol_m, const PlaneParams& validity) {
+                           const OrganizedCloud& cloud, const Plane& plane, const layer::BandTable& band,
+                           const Eigen::Isometry3d& T_layer_camera, const PlaneParams& validity) {
   RingGeometry g;
   g.points.reserve(ring.pixels.size());
   static const int du[4] = {-1, 1, 0, 0};
   static const int dv[4] = {0, 0, -1, 1};
-  const double min_step = -std::max(3.0 * tol_m, 0.03);
   std::vector<double> spacing;
+  const Eigen::Vector2d camera_xy = T_layer_camera.translation().head<2>();
   for (const cv::Point& p : ring.pixels) {
     const Eigen::Vector2d q = to_layer(p.x, p.y);
     g.points.push_back(q);
+    const Eigen::Vector3f& pc = cloud.at(p.x, p.y);
+    const bool measured = layer::usable(pc, validity);
+    const double band_m = static_cast<double>(band.at(pc.z()));
+    // A real step down: beyond the fillable zone of twice the band, at least 30 mm.
+    const double min_step = -std::max(2.0 * band_m, 0.03);
     for (int k = 0; k < 4; ++k) {
       const int u = p.x + du[k], v = p.y + dv[k];
       const bool inside = u >= 0 && v >= 0 && u < mask.cols && v < mask.rows;
@@ -65,7 +76,16 @@ RingGeometry ring_geometry(const layer::RingPixels& ring, const cv::Mat& mask, c
         const double alpha = std::isfinite(s_out) ? std::clamp(1.0 - s_out / s_far, 0.0, 1.0) : 0.0;
         e = std::clamp(beta + alpha - 0.5, 0.0, 1.5);
       }
-      g.samples.push_back(q + e * (o - q));
+      const Eigen::Vector2d step = o - q;
+      if (measured && step.dot(camera_xy - q) > 0.0) {
+        // Edge facing the camera: its wall lies beyond it (no step down to mix with); the
+        // projected measured point.
+        const Eigen::Vector3d m = T_layer_camera * pc.cast<double>();
+        const double w = std::clamp(1.0 + m.z() / band_m, 0.0, 1.0);  // 1 on the top, 0 a band below
+        g.samples.push_back(m.head<2>() + 0.5 * w * step);
+      } else {
+        g.samples.push_back(q + e * step);
+      }
       spacing.push_back((o - q).norm());
     }
   }
@@ -116,12 +136,11 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   // Stage 2: layer frame and band.
   const auto t_layer = Clock::now();
   result.T_camera_layer = layer::layer_frame(top.plane, top.centroid);
-  const double tol = layer_params.passthrough_tolerance_m > 0.0 ? layer_params.passthrough_tolerance_m
-                                                                 : layer::default_passthrough_tolerance(top.sigma_m);
-  result.diagnostics.passthrough_tolerance_m = tol;
+  const layer::BandTable band(top.noise, layer_params.passthrough_tolerance_m);
+  result.diagnostics.passthrough_tolerance_m = band.max_m();
 
   // Stages 3-4: mask, border, components.
-  layer::LayerMask lm = layer::layer_mask(cloud, top.plane, tol, plane_params);
+  layer::LayerMask lm = layer::layer_mask(cloud, top.plane, band, plane_params);
   result.diagnostics.filled_dropouts = lm.filled_dropouts;
   result.diagnostics.touches_image_border = lm.touches_image_border;
   if (cv::countNonZero(lm.mask) == 0) {
@@ -137,6 +156,9 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   const Eigen::Isometry3d T_layer_camera = result.T_camera_layer.inverse();
   const Eigen::Matrix3f R = T_layer_camera.linear().cast<float>();
   const Eigen::Vector3f t = T_layer_camera.translation().cast<float>();
+  const auto n_layer = static_cast<std::size_t>(cv::countNonZero(lm.mask));
+  result.points_2d.reserve(n_layer);
+  result.point_pixels.reserve(n_layer);
   for (int v = 0; v < lm.mask.rows; ++v) {
     const auto* m = lm.mask.ptr<std::uint8_t>(v);
     for (int u = 0; u < lm.mask.cols; ++u) {
@@ -171,7 +193,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   const auto t_contour = Clock::now();
   const layer::PixelToLayer to_layer(K, top.plane, result.T_camera_layer);
   auto build_ring = [&](const layer::RingPixels& pixels, bool hole) -> Ring2d {
-    const RingGeometry g = ring_geometry(pixels, lm.mask, to_layer, cloud, top.plane, tol, plane_params);
+    const RingGeometry g = ring_geometry(pixels, lm.mask, to_layer, cloud, top.plane, band, T_layer_camera, plane_params);
     const double d_max = contour_params.d_max_m > 0.0 ? contour_params.d_max_m : 2.0 * g.pitch_m;
     result.diagnostics.d_max_m = std::max(result.diagnostics.d_max_m, d_max);
     std::vector<std::pair<int, int>> edges;

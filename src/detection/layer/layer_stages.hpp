@@ -2,6 +2,7 @@
 // the tests include it to check each stage alone).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -17,13 +18,32 @@
 
 namespace palletd::layer {
 
+// ---- physical limits --------------------------------------------------------------------------
+
+/// A box layer below the top one is at least this much lower (boxes are >= 100 mm high) [m].
+constexpr double kMinLayerStep = 0.10;
+/// Widest passthrough / refit band: half the step to the layer below [m].
+constexpr double kMaxBand = 0.5 * kMinLayerStep;
+
 // ---- stage 1: top plane ----------------------------------------------------------------------
+
+/// Depth noise of the plane's points, measured (robust sigma of the residuals per depth bin).
+struct DepthNoise {
+  std::vector<double> bin_z_m;      ///< bin centres (median depth), ascending [m]; empty: one sigma
+  std::vector<double> bin_sigma_m;  ///< robust sigma per bin [m]
+  double sigma_all_m = 0.0;     ///< robust sigma of all points [m]
+  /// Sigma at depth z, linear between bin centres, constant beyond [m].
+  [[nodiscard]] double sigma_at(double z_m) const;
+  /// Passthrough band at depth z (default_passthrough_tolerance of sigma_at) [m].
+  [[nodiscard]] double band_at(double z_m) const;
+};
 
 struct TopPlane {
   DetectionStatus status = DetectionStatus::no_plane;
   std::string reason;
   Plane plane;                 ///< refitted, normal toward the camera
-  double sigma_m = 0.0;        ///< RMS residual of the refit inliers [m]
+  double sigma_m = 0.0;        ///< robust sigma of the residuals near the plane [m]
+  DepthNoise noise;            ///< the same per depth
   std::size_t valid_points = 0;
   std::size_t inliers = 0;     ///< full-resolution refit inliers
   std::size_t candidates = 0;  ///< planes with enough area seen on the way
@@ -34,7 +54,10 @@ struct TopPlane {
 double pixel_area_m2(double z_m, double plane_distance_m, const Intrinsics& intrinsics);
 
 /// True when the point is finite and its depth within [min_depth_m, max_depth_m].
-bool usable(const Eigen::Vector3f& p, const PlaneParams& params);
+inline bool usable(const Eigen::Vector3f& p, const PlaneParams& params) {
+  if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) return false;
+  return p.z() >= params.min_depth_m && p.z() <= params.max_depth_m;
+}
 
 /// Finds the top plane: the nearest (along its normal) plane facing the camera whose inliers
 /// cover at least min_plane_area_m2; refits it by least squares on full-resolution inliers.
@@ -47,8 +70,29 @@ TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsic
 /// origin the projection of `origin_camera` onto the plane. Returns T_camera_layer.
 Eigen::Isometry3d layer_frame(const Plane& plane, const Eigen::Vector3d& origin_camera);
 
-/// Default passthrough band from the refit residual [m].
+/// Default passthrough band from the noise sigma: 3 sigma + 4 mm, within [6 mm, kMaxBand] [m].
 double default_passthrough_tolerance(double sigma_m);
+
+/// The passthrough band per depth, tabulated for the per-pixel loops: a fixed band when
+/// fixed_m > 0, else DepthNoise::band_at.
+class BandTable {
+ public:
+  BandTable(const DepthNoise& noise, double fixed_m);
+  explicit BandTable(double fixed_m) : BandTable(DepthNoise{}, fixed_m) {}
+  [[nodiscard]] float at(float z_m) const {
+    const float x = (z_m - z0_) * inv_step_;
+    if (!(x > 0.0F)) return band_.front();
+    const auto i = static_cast<std::size_t>(x);
+    return i < band_.size() ? band_[i] : band_.back();
+  }
+  [[nodiscard]] double max_m() const { return max_m_; }
+  [[nodiscard]] double min_m() const { return min_m_; }
+
+ private:
+  float z0_ = 0.0F, inv_step_ = 0.0F;
+  std::vector<float> band_;
+  double max_m_ = 0.0, min_m_ = 0.0;
+};
 
 // ---- stage 3: mask and border ----------------------------------------------------------------
 
@@ -60,9 +104,9 @@ struct LayerMask {
   bool touches_image_border = false;
 };
 
-/// Layer pixels (|signed distance| <= tolerance), invalid pixels nearly surrounded by layer
+/// Layer pixels (|signed distance| <= the band at their depth), invalid pixels nearly surrounded by layer
 /// filled, one-pixel spurs (flying pixels) removed by an opening, border pixels marked.
-LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, double tolerance_m,
+LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, const BandTable& band,
                      const PlaneParams& validity);
 
 /// Border pixels of a mask from the 8-neighbourhood (pixels outside the image count as off).

@@ -18,7 +18,7 @@ cv::Mat border_of(const cv::Mat& mask) {
   return border;
 }
 
-LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, double tolerance_m,
+LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, const BandTable& band,
                      const PlaneParams& validity) {
   LayerMask out;
   const int w = cloud.width, h = cloud.height;
@@ -26,7 +26,6 @@ LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, double tol
   cv::Mat fillable(h, w, CV_8U, cv::Scalar(255));  // invalid, or a noise outlier near the plane
   const Eigen::Vector3f n = plane.normal.cast<float>();
   const auto d = static_cast<float>(plane.d);
-  const auto tol = static_cast<float>(tolerance_m);
   for (int v = 0; v < h; ++v) {
     auto* row = raw.ptr<std::uint8_t>(v);
     auto* fil = fillable.ptr<std::uint8_t>(v);
@@ -34,6 +33,7 @@ LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, double tol
       const Eigen::Vector3f& p = cloud.at(u, v);
       if (!usable(p, validity)) continue;
       const float s = std::abs(n.dot(p) + d);
+      const float tol = band.at(p.z());
       if (s > 2.0F * tol) fil[u] = 0;  // a real surface off the layer (e.g. seen through a gap)
       if (s <= tol) {
         row[u] = 255;

@@ -6,6 +6,7 @@
 
 #include "layout_internal.hpp"
 #include "layout_scoring.hpp"
+#include "seam_likelihood.hpp"
 
 namespace palletd {
 
@@ -278,10 +279,42 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       if (tables[slot].empty()) tables[slot] = SeamTable(*seams, frames[slot], bounds_of(frame_polys[slot]));
       return tables[slot].empty() ? nullptr : &tables[slot];
     };
-    // Rank the near-equal hypotheses by seam agreement (line integrals along whole edges).
+    // Rank the near-equal hypotheses: by the seam likelihood (seam_likelihood.hpp) when they share
+    // a layout frame and the frame's seams stand out of its box tops; otherwise by the older
+    // seam agreement (line integrals along whole edges).
     std::vector<std::size_t> order = near;
     bool ambiguous = near.size() > 1;
+    bool decided = false;
     if (near.size() > 1 && have_seams) {
+      // Seam likelihood among the near-equal layouts of one layout frame (the usual case): the
+      // pieces where two layouts disagree decide, against noise levels taken from the frame.
+      const std::size_t slot = cands[near.front()].orientation;
+      bool one_frame = true;
+      for (std::size_t n : near) one_frame = one_frame && cands[n].orientation == slot;
+      if (one_frame) {
+        const double tol = params.line_merge_tol_m > 0 ? params.line_merge_tol_m : std::clamp(0.06 * min_short, 0.006, 0.02);
+        SeamLikelihood lik(*seams, frames[slot], frame_polys[slot], tol, params.seam_margin_m);
+        std::vector<const std::vector<FrameBox>*> layouts;
+        for (std::size_t n : near) layouts.push_back(&cands[n].boxes);
+        if (lik.calibrate(layouts)) {
+          // Evidence of each against the outline's best, then the winner against every other.
+          std::vector<double> ev(near.size(), 0.0);
+          for (std::size_t i = 1; i < near.size(); ++i) ev[i] = lik.compare(cands[near[i]].boxes, cands[near[0]].boxes);
+          const auto w = static_cast<std::size_t>(std::max_element(ev.begin(), ev.end()) - ev.begin());
+          double margin_nats = 1e300;
+          for (std::size_t i = 0; i < near.size(); ++i) {
+            if (i != w) margin_nats = std::min(margin_nats, lik.compare(cands[near[w]].boxes, cands[near[i]].boxes));
+          }
+          order.clear();
+          order.push_back(near[w]);
+          for (std::size_t i = 0; i < near.size(); ++i)
+            if (i != w) order.push_back(near[i]);
+          ambiguous = margin_nats < SeamLikelihood::decisive_nats(min_short);
+          decided = true;
+        }
+      }
+    }
+    if (near.size() > 1 && have_seams && !decided) {
       std::vector<double> agree(cands.size(), 0.0);
       for (std::size_t n : near) {
         const SeamTable* t = table_of(cands[n].orientation);

@@ -1,12 +1,18 @@
-// refine_layout(): each box edge on the outline moves to the measured layer border, each edge
-// shared with a neighbour to the seam line; box centres are the least-squares fit of these
-// edge estimates with nominal sizes (sizes change only within the tolerance when both opposite
-// edges are measured on the outline).
+// refine_layout(): a joint fit of all boxes of a layout component in its layout frame. Each box
+// side is measured where the evidence is: a side on the outline from the box's own layer points
+// (walked outward to the first gap), a side shared with a neighbour from the seam raster (the
+// box's own edge of the seam band, depth or intensity); every side is a robust line fit
+// (refine_joint.cpp). Sides with a neighbour but no visible seam make the two boxes touch.
+// Centres and sizes of all boxes are then one least-squares fit with the nominal format as a
+// prior on each size (sizes stay within the tolerance); the per-box yaw follows the fitted
+// side slopes.
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "layout_internal.hpp"
 #include "layout_scoring.hpp"
+#include "refine_joint.hpp"
 
 namespace palletd {
 
@@ -59,10 +65,110 @@ class PointGrid {
 
 }  // namespace
 
+namespace {
+
+/// Bilinear seam value at a layer point (0 outside the raster).
+double seam_at(const SeamEvidence& ev, const Eigen::Vector2d& p) {
+  const double fx = (p.x() - ev.origin_m.x()) / ev.cell_m - 0.5, fy = (p.y() - ev.origin_m.y()) / ev.cell_m - 0.5;
+  if (!(fx >= 0 && fy >= 0 && fx < ev.width - 1 && fy < ev.height - 1)) return 0.0;
+  const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
+  const double ax = fx - ix, ay = fy - iy;
+  return (1 - ay) * ((1 - ax) * ev.at(ix, iy) + ax * ev.at(ix + 1, iy)) +
+         ay * ((1 - ax) * ev.at(ix, iy + 1) + ax * ev.at(ix + 1, iy + 1));
+}
+
+/// One side of a box in its component's layout frame.
+struct SideRef {
+  double pos = 0;          ///< current side position along `axis` [m]
+  double lo = 0, hi = 0;   ///< measured stretch along the side [m]
+  double t_ref = 0;        ///< box centre along the side [m]
+  int axis = 0, sign = 1;
+};
+
+SideRef side_of(const JointBox& b, int axis, int sign, double margin_m) {
+  SideRef s;
+  s.axis = axis;
+  s.sign = sign;
+  const int o = 1 - axis;
+  s.pos = b.center[axis] + sign * b.half[axis];
+  s.t_ref = b.center[o];
+  s.lo = b.center[o] - b.half[o] + margin_m;
+  s.hi = b.center[o] + b.half[o] - margin_m;
+  return s;
+}
+
+/// Outline side: per slice along the side, walk the box's own layer points outward from inside
+/// the box and stop at the first gap (no points over gap_m); the edge is the last point plus
+/// half a pixel. Samples (t, p) in the frame.
+std::vector<Eigen::Vector2d> outline_samples(const SideRef& s, const std::vector<Eigen::Vector2d>& local,
+                                             double pitch_m, double window_m, double window_in_m) {
+  std::vector<Eigen::Vector2d> out;
+  if (s.hi <= s.lo) return out;
+  const double slice = 1.5 * pitch_m, gap = 2.5 * pitch_m;
+  const int n = std::max(1, static_cast<int>((s.hi - s.lo) / slice));
+  std::vector<std::vector<double>> across(static_cast<std::size_t>(n));
+  const int o = 1 - s.axis;
+  for (const auto& q : local) {
+    const double t = q[o];
+    if (t < s.lo || t >= s.hi) continue;
+    const double u = s.sign * (q[s.axis] - s.pos);  // outward from the current side [m]
+    if (u < -window_in_m || u > window_m) continue;
+    const auto k = static_cast<std::size_t>(std::min(n - 1, static_cast<int>((t - s.lo) / (s.hi - s.lo) * n)));
+    across[k].push_back(u);
+  }
+  for (std::size_t k = 0; k < across.size(); ++k) {
+    auto& v = across[k];
+    if (v.size() < 3) continue;
+    std::sort(v.begin(), v.end());
+    if (v.front() > -window_in_m + gap) continue;  // the slice does not start on the box top
+    double edge = v.front();
+    for (std::size_t i = 1; i < v.size() && v[i] - edge < gap; ++i) edge = v[i];
+    if (edge > window_m - gap) continue;  // no gap within the window: the edge is not seen here
+    const double t = s.lo + (static_cast<double>(k) + 0.5) * (s.hi - s.lo) / n;
+    out.emplace_back(t, s.pos + s.sign * (edge + 0.5 * pitch_m));
+  }
+  return out;
+}
+
+/// Shared side: per slice, walk the seam raster outward from inside the box to where it first
+/// reaches 0.5 (the box's own edge of the seam band; sub-cell by linear interpolation).
+std::vector<Eigen::Vector2d> seam_samples(const SideRef& s, const SeamEvidence& ev, const LayoutFrame& frame,
+                                          double window_m, double window_in_m) {
+  std::vector<Eigen::Vector2d> out;
+  if (s.hi <= s.lo) return out;
+  const double step = ev.cell_m;
+  const int n = std::max(1, static_cast<int>((s.hi - s.lo) / step));
+  const int o = 1 - s.axis;
+  Eigen::Vector2d dir_u = Eigen::Vector2d::Zero();
+  dir_u[s.axis] = s.sign;
+  const Eigen::Vector2d du = frame.to_layer(dir_u) - frame.to_layer(Eigen::Vector2d::Zero());
+  for (int k = 0; k < n; ++k) {
+    const double t = s.lo + (k + 0.5) * (s.hi - s.lo) / n;
+    Eigen::Vector2d q;
+    q[s.axis] = s.pos;
+    q[o] = t;
+    const Eigen::Vector2d base = frame.to_layer(q);
+    double u = -window_in_m;
+    double prev = seam_at(ev, base + u * du);
+    if (prev >= 0.5) continue;  // starts in a seam: no box top to walk from
+    for (u += step; u <= window_m; u += step) {
+      const double v = seam_at(ev, base + u * du);
+      if (v >= 0.5) {
+        const double cross = u - step + step * (0.5 - prev) / (v - prev);
+        out.emplace_back(t, s.pos + s.sign * cross);
+        break;
+      }
+      prev = v;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                            const std::vector<BoxFormat>& formats, const SeamEvidence* seams,
                            const LayoutParams& params) {
-  (void)formats;
   LayoutResult out = found;
   if (found.status != DetectionStatus::ok || found.boxes.empty()) return out;
   double layer_area = 0;
@@ -71,10 +177,11 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                        : std::sqrt(layer_area / static_cast<double>(layer.points_2d.size()));
   const PointGrid grid(layer.points_2d, 0.05);
   const double m = params.seam_margin_m;
-  const double band = std::max(0.02, 4 * pitch);
   const bool use_seams = seams != nullptr && !seams->empty() && seams->strength > 0;
+  // How far a side may lie from where the search put it: the search packs nominal boxes
+  // without gaps, so interior sides are off by the gaps and size deviations accumulated.
+  const double window = std::max(0.03, 2.5 * m);
 
-  // One layout frame and seam table per component (its boxes are turned by 0 or 90 deg).
   struct ComponentFrame {
     bool built = false;
     LayoutFrame frame;
@@ -82,11 +189,16 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     SeamTable table;
   };
   std::vector<ComponentFrame> frames(layer.polygons.size());
-  auto frame_of = [&](std::size_t ci, const Box2d& box) -> ComponentFrame& {
+  std::vector<std::vector<std::size_t>> members(layer.polygons.size());
+  for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
+    const auto ci = static_cast<std::size_t>(found.box_component[bi]);
+    if (ci < layer.polygons.size()) members[ci].push_back(bi);
+  }
+  for (std::size_t ci = 0; ci < members.size(); ++ci) {
+    if (members[ci].empty()) continue;
     ComponentFrame& cf = frames[ci];
-    if (cf.built) return cf;
     cf.built = true;
-    double theta = std::fmod(box.yaw_rad, M_PI / 2);
+    double theta = std::fmod(out.boxes[members[ci].front()].yaw_rad, M_PI / 2);
     if (theta < 0) theta += M_PI / 2;
     cf.frame.theta_rad = theta;
     Eigen::Vector2d c = Eigen::Vector2d::Zero();
@@ -94,136 +206,141 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     if (!layer.polygons[ci].outer.empty()) c /= static_cast<double>(layer.polygons[ci].outer.size());
     cf.frame.pivot = c;
     cf.polygon = cf.frame.to_frame(layer.polygons[ci]);
-    if (use_seams) {
-      Rect b{1e300, 1e300, -1e300, -1e300};
-      for (const auto& v : cf.polygon.outer) {
-        b.x0 = std::min(b.x0, v.x()); b.x1 = std::max(b.x1, v.x());
-        b.y0 = std::min(b.y0, v.y()); b.y1 = std::max(b.y1, v.y());
-      }
-      cf.table = SeamTable(*seams, cf.frame, Rect{b.x0 - 2 * m, b.y0 - 2 * m, b.x1 + 2 * m, b.y1 + 2 * m});
+    Rect b{1e300, 1e300, -1e300, -1e300};
+    for (const auto& v : cf.polygon.outer) {
+      b.x0 = std::min(b.x0, v.x()); b.x1 = std::max(b.x1, v.x());
+      b.y0 = std::min(b.y0, v.y()); b.y1 = std::max(b.y1, v.y());
     }
-    return cf;
-  };
+    if (use_seams) cf.table = SeamTable(*seams, cf.frame, Rect{b.x0 - 2 * m, b.y0 - 2 * m, b.x1 + 2 * m, b.y1 + 2 * m});
 
-  for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
-    Box2d& box = out.boxes[bi];
-    const auto ci = static_cast<std::size_t>(found.box_component[bi]);
-    if (ci >= layer.polygons.size()) continue;
-    LayoutFrame frame;
-    frame.theta_rad = box.yaw_rad;
-    frame.pivot = box.center;
-    const PolygonWithHoles fp = frame.to_frame(layer.polygons[ci]);
-    const double hx = box.long_m / 2, hy = box.short_m / 2;
-    ComponentFrame& cf = frame_of(ci, box);
-    BoxView view;
-    view.table = &cf.table;
-    view.center = cf.frame.to_frame(box.center);
-    view.turned = std::abs(std::remainder(box.yaw_rad - cf.frame.theta_rad, M_PI)) > M_PI / 4;
-    // Collect the layer points near the box, in the box frame.
-    std::vector<Eigen::Vector2d> local;
-    const double reach = std::hypot(hx, hy) + band;
-    const double cs = std::cos(frame.theta_rad), sn = std::sin(frame.theta_rad);
-    grid.visit(box.center.x() - reach, box.center.y() - reach, box.center.x() + reach, box.center.y() + reach,
-               [&](const Eigen::Vector2f& p) {
-                 const double dx = p.x() - box.center.x(), dy = p.y() - box.center.y();
-                 const Eigen::Vector2d q(cs * dx + sn * dy, -sn * dx + cs * dy);  // frame.to_frame(p)
-                 if (std::abs(q.x()) <= hx + band && std::abs(q.y()) <= hy + band) local.push_back(q);
-               });
-    // Edge estimates per axis: (position, outward sign, weight, outline?).
-    double est[2][2] = {{0, 0}, {0, 0}};  // [axis][side]: measured edge position
-    bool have[2][2] = {{false, false}, {false, false}}, outline[2][2] = {{false, false}, {false, false}};
-    double weight[2][2] = {{0, 0}, {0, 0}};
-    for (int axis = 0; axis < 2; ++axis) {
-      const double half = axis == 0 ? hx : hy, other = axis == 0 ? hy : hx;
-      for (int side = 0; side < 2; ++side) {
-        const double out_sign = side == 0 ? -1.0 : 1.0;
-        const double pos = out_sign * half;
-        const double lo = -other + m, hi = other - m;
-        if (hi <= lo) continue;
-        const double a0 = pos + out_sign * m, a1 = pos + out_sign * 3 * m;
-        Rect outside = axis == 0 ? Rect{std::min(a0, a1), lo, std::max(a0, a1), hi}
-                                 : Rect{lo, std::min(a0, a1), hi, std::max(a0, a1)};
-        const bool neighbour = clipped_area(fp, outside.x0, outside.y0, outside.x1, outside.y1) > 0.5 * outside.area();
-        if (!neighbour) {
-          // Outline edge: per slice along the edge, the outermost layer point; median + half a pixel.
-          const int slices = std::max(1, static_cast<int>((hi - lo) / std::max(pitch, 0.002)));
-          std::vector<double> extreme(static_cast<std::size_t>(slices), -1e300);
-          for (const auto& q : local) {
-            const double along = axis == 0 ? q.y() : q.x();
-            const double across = (axis == 0 ? q.x() : q.y()) * out_sign;
-            if (along < lo || along >= hi || std::abs(across - half) > band) continue;
-            const auto s = static_cast<std::size_t>(std::min(slices - 1, static_cast<int>((along - lo) / (hi - lo) * slices)));
-            extreme[s] = std::max(extreme[s], across);
-          }
-          std::vector<double> vals;
-          for (double e : extreme) if (e > -1e299) vals.push_back(e);
-          if (vals.size() >= 3) {
-            std::nth_element(vals.begin(), vals.begin() + static_cast<long>(vals.size() / 2), vals.end());
-            est[axis][side] = out_sign * (vals[vals.size() / 2] + 0.5 * pitch);
-            have[axis][side] = outline[axis][side] = true;
-            weight[axis][side] = 1.0;
-          }
-        } else if (!cf.table.empty()) {
-          // Shared edge: centroid of the seam profile across the edge.
-          // Search twice the margin (the nominal grid can be off by the gaps between boxes),
-          // then take the centroid around the strongest line only.
-          double sw = 0, s = 0;
-          const double cell = seams->cell_m;
-          std::vector<std::pair<double, double>> profile;  // (position, mean seam along the edge)
-          for (double off = -2 * m; off <= 2 * m; off += cell) {
-            const double p = pos + off;
-            const Rect strip = axis == 0 ? Rect{p - cell / 2, lo, p + cell / 2, hi} : Rect{lo, p - cell / 2, hi, p + cell / 2};
-            profile.emplace_back(p, view.mean(strip));
-          }
-          double peak_p = pos, peak_v = 0.0;
-          for (const auto& [p, v] : profile) {
-            if (v > peak_v || (v == peak_v && std::abs(p - pos) < std::abs(peak_p - pos))) {
-              peak_v = v;
-              peak_p = p;
+    // The joint fit of this component's boxes.
+    const auto& idx = members[ci];
+    const std::size_t n = idx.size();
+    std::vector<JointBox> jb(n);
+    std::vector<bool> along_x(n);
+    std::vector<double> local_pitch(n, pitch);
+    std::vector<std::vector<Eigen::Vector2d>> local(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const Box2d& box = out.boxes[idx[k]];
+      along_x[k] = std::abs(std::remainder(box.yaw_rad - theta, M_PI)) < M_PI / 4;
+      jb[k].center = cf.frame.to_frame(box.center);
+      double nl = box.long_m, ns = box.short_m;
+      if (box.format >= 0 && static_cast<std::size_t>(box.format) < formats.size()) {
+        nl = formats[static_cast<std::size_t>(box.format)].long_m;
+        ns = formats[static_cast<std::size_t>(box.format)].short_m;
+      }
+      jb[k].half = along_x[k] ? Eigen::Vector2d(box.long_m / 2, box.short_m / 2) : Eigen::Vector2d(box.short_m / 2, box.long_m / 2);
+      jb[k].half_nominal = along_x[k] ? Eigen::Vector2d(nl / 2, ns / 2) : Eigen::Vector2d(ns / 2, nl / 2);
+      const double reach = jb[k].half.norm() + window;
+      std::size_t inside = 0;
+      grid.visit(box.center.x() - reach, box.center.y() - reach, box.center.x() + reach, box.center.y() + reach,
+                 [&](const Eigen::Vector2f& p) {
+                   const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(p.cast<double>()));
+                   const Eigen::Vector2d d = (q - jb[k].center).cwiseAbs();
+                   if (d.x() > jb[k].half.x() + window || d.y() > jb[k].half.y() + window) return;
+                   local[k].push_back(q);
+                   if (d.x() < jb[k].half.x() - window && d.y() < jb[k].half.y() - window) ++inside;
+                 });
+      const double inner_area = std::max(0.0, 2 * (jb[k].half.x() - window)) * std::max(0.0, 2 * (jb[k].half.y() - window));
+      if (inside > 50) local_pitch[k] = std::sqrt(inner_area / static_cast<double>(inside));
+    }
+    std::vector<SideObservation> sides;
+    std::vector<Contact> contacts;
+    // unseen[k][axis][side]: a side with layer beyond it where no seam was measured.
+    std::vector<std::array<std::array<bool, 2>, 2>> unseen(n);
+    std::vector<double> phi_sum(n, 0.0), phi_w(n, 0.0);
+    for (std::size_t k = 0; k < n; ++k) {
+      const double lp = local_pitch[k];
+      for (int axis = 0; axis < 2; ++axis) {
+        const double win_in = std::min(window, 0.4 * jb[k].half[axis]);
+        for (int si = 0; si < 2; ++si) {
+          const int sign = si == 0 ? -1 : 1;
+          unseen[k][static_cast<std::size_t>(axis)][static_cast<std::size_t>(si)] = false;
+          const SideRef s = side_of(jb[k], axis, sign, m);
+          if (s.hi <= s.lo) continue;
+          const double a0 = s.pos + sign * m, a1 = s.pos + sign * 3 * m;
+          const Rect beyond = axis == 0 ? Rect{std::min(a0, a1), s.lo, std::max(a0, a1), s.hi}
+                                        : Rect{s.lo, std::min(a0, a1), s.hi, std::max(a0, a1)};
+          const bool shared = clipped_area(cf.polygon, beyond.x0, beyond.y0, beyond.x1, beyond.y1) > 0.5 * beyond.area();
+          std::vector<Eigen::Vector2d> samples;
+          double floor_m = 0.3 * lp;
+          std::size_t slices = static_cast<std::size_t>((s.hi - s.lo) / (1.5 * lp));
+          if (!shared || !use_seams) {
+            samples = outline_samples(s, local[k], lp, window, win_in);
+          } else {
+            // The box's edge of the seam band; where the raster shows none, where the box's own
+            // points end (a hole, a gap the seam raster leaves out).
+            samples = seam_samples(s, *seams, cf.frame, window, win_in);
+            const std::vector<Eigen::Vector2d> own = outline_samples(s, local[k], lp, window, win_in);
+            const double reach_t = 1.5 * lp;
+            // Slices where the raster shows no band but the box's points end (a hole).
+            std::vector<Eigen::Vector2d> extra;
+            for (const auto& q : own) {  // samples are sorted by t
+              const auto it = std::lower_bound(samples.begin(), samples.end(), q.x() - reach_t,
+                                               [](const Eigen::Vector2d& a, double t) { return a.x() < t; });
+              if (it == samples.end() || it->x() > q.x() + reach_t) extra.push_back(q);
             }
+            samples.insert(samples.end(), extra.begin(), extra.end());
+            floor_m = 0.3 * seams->cell_m;
+            slices = static_cast<std::size_t>((s.hi - s.lo) / seams->cell_m);
           }
-          for (const auto& [p, v] : profile) {
-            if (v > 0.2 && std::abs(p - peak_p) <= 0.5 * m) {
-              s += v * p;
-              sw += v;
-            }
+          const int min_samples = std::max(5, static_cast<int>(0.3 * static_cast<double>(slices)));
+          const EdgeLine line = fit_edge_line(samples, s.t_ref, floor_m, min_samples);
+          if (!line.ok) {
+            unseen[k][static_cast<std::size_t>(axis)][static_cast<std::size_t>(si)] = shared;
+            continue;
           }
-          if (sw > 0.5) {
-            est[axis][side] = s / sw;
-            have[axis][side] = true;
-            weight[axis][side] = 0.5;
-          }
+          // Pixel-scale bias of an edge estimate is not averaged away by many samples.
+          const double sigma = std::hypot(line.sigma_offset_m, 0.2 * lp);
+          sides.push_back({static_cast<int>(k), axis, sign, line.offset_m, sigma});
+          // x-sides: x = c + h - phi (y - cy); y-sides: y = c + h + phi (x - cx).
+          const double phi = axis == 0 ? -line.slope : line.slope;
+          const double w = 1.0 / (line.sigma_slope * line.sigma_slope + 1e-8);
+          phi_sum[k] += w * phi;
+          phi_w[k] += w;
         }
       }
     }
-    double shift[2] = {0, 0};
-    double size[2] = {box.long_m, box.short_m};
-    for (int axis = 0; axis < 2; ++axis) {
-      const double half = axis == 0 ? hx : hy;
-      if (outline[axis][0] && outline[axis][1]) {
-        const double measured = est[axis][1] - est[axis][0];
-        size[axis] = std::clamp(measured, 2 * half - params.refine_size_tolerance_m, 2 * half + params.refine_size_tolerance_m);
+    // Neighbours pressed together (no seam seen on either side): they touch.
+    for (std::size_t a = 0; a < n; ++a) {
+      for (std::size_t bj = 0; bj < n; ++bj) {
+        if (a == bj) continue;
+        for (int axis = 0; axis < 2; ++axis) {
+          const int o = 1 - axis;
+          const double pa = jb[a].center[axis] + jb[a].half[axis], pb = jb[bj].center[axis] - jb[bj].half[axis];
+          const double overlap = std::min(jb[a].center[o] + jb[a].half[o], jb[bj].center[o] + jb[bj].half[o]) -
+                                 std::max(jb[a].center[o] - jb[a].half[o], jb[bj].center[o] - jb[bj].half[o]);
+          if (std::abs(pb - pa) > 2 * m || overlap < 2 * m) continue;
+          if (!unseen[a][static_cast<std::size_t>(axis)][1] || !unseen[bj][static_cast<std::size_t>(axis)][0]) continue;
+          contacts.push_back({static_cast<int>(a), static_cast<int>(bj), axis, 0.5 * std::min(local_pitch[a], local_pitch[bj])});
+        }
       }
-      double sw = 0, s = 0;
-      for (int side = 0; side < 2; ++side) {
-        if (!have[axis][side]) continue;
-        const double c = est[axis][side] - (side == 0 ? -1.0 : 1.0) * size[axis] / 2;
-        s += weight[axis][side] * c;
-        sw += weight[axis][side];
-      }
-      if (sw > 0) shift[axis] = s / sw;
-      if (std::abs(shift[axis]) > 0.25 * box.short_m) shift[axis] = 0;  // a wrong association
     }
-    box.center = frame.to_layer(Eigen::Vector2d(shift[0], shift[1]));
-    box.long_m = size[0];
-    box.short_m = size[1];
+    std::vector<JointBox> fitted = jb;
+    JointParams jp;
+    jp.size_tolerance_m = params.refine_size_tolerance_m;
+    jp.size_sigma_m = params.refine_size_tolerance_m / 2;
+    solve_joint(fitted, sides, contacts, jp);
+    for (std::size_t k = 0; k < n; ++k) {
+      Box2d& box = out.boxes[idx[k]];
+      const Eigen::Vector2d shift = fitted[k].center - jb[k].center;
+      if (!fitted[k].center.allFinite() || shift.norm() > 0.25 * box.short_m) continue;  // a wrong association
+      box.center = cf.frame.to_layer(fitted[k].center);
+      const Eigen::Vector2d size = 2 * fitted[k].half;
+      box.long_m = along_x[k] ? size.x() : size.y();
+      box.short_m = along_x[k] ? size.y() : size.x();
+      if (phi_w[k] > 0) {
+        const double phi = phi_sum[k] / phi_w[k];
+        if (std::abs(phi) < 5.0 * M_PI / 180.0) box.yaw_rad += phi;
+      }
+    }
   }
   // Scores and coverage of the refined boxes.
   double covered = 0;
   for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
     const auto ci = static_cast<std::size_t>(found.box_component[bi]);
-    if (ci >= layer.polygons.size()) continue;
-    ComponentFrame& cf = frame_of(ci, out.boxes[bi]);
+    if (ci >= layer.polygons.size() || !frames[ci].built) continue;
+    const ComponentFrame& cf = frames[ci];
     const BoxSupport s = box_support(out.boxes[bi], cf.frame, cf.polygon, cf.table.empty() ? nullptr : &cf.table, params);
     out.box_scores[bi] = s.score;
     covered += s.inside_area_m2;

@@ -6,6 +6,7 @@
 #include <memory>
 #include <queue>
 #include <set>
+#include <unordered_map>
 
 #include "layout_internal.hpp"
 
@@ -29,7 +30,7 @@ struct Placement {
   double penalty;
 };
 
-/// Candidate lines on one axis: seeds closed under +/- every box side, merged within tol.
+/// Candidate lines on one axis: seeds closed under adding every (signed) box side, merged within tol.
 std::vector<double> close_lines(std::vector<std::pair<double, double>> seeds /* (pos, weight) */,
                                 const std::vector<double>& dims, double lo, double hi, double tol,
                                 bool* capped) {
@@ -56,7 +57,7 @@ std::vector<double> close_lines(std::vector<std::pair<double, double>> seeds /* 
     std::vector<double> next;
     for (double v : frontier) {
       for (double d : dims) {
-        for (double w : {v + d, v - d}) {
+        for (double w : {v + d}) {
           if (w < lo - tol || w > hi + tol || near_existing(w)) continue;
           lines.insert(w);
           next.push_back(w);
@@ -123,6 +124,9 @@ class ProductSearch {
   void advance(Node& n, std::uint64_t* occ) const;
   std::vector<FrameBox> boxes_of(int node) const;
   std::uint64_t* occ(std::size_t node) { return pool_.data() + node * words_; }
+  /// Key of a node's frontier: its cursor and the occupancy from the cursor on. Two nodes with
+  /// the same key have the same futures; only their pasts (covered area) differ.
+  [[nodiscard]] std::uint64_t frontier_key(const Node& n, const std::uint64_t* o) const;
 
   const PolygonWithHoles& poly_;
   const PolygonWithHoles& edges_;
@@ -168,27 +172,53 @@ bool ProductSearch::build(std::string* reason) {
     bx0 = std::min(bx0, p.x()); bx1 = std::max(bx1, p.x());
     by0 = std::min(by0, p.y()); by1 = std::max(by1, p.y());
   }
-  std::vector<std::pair<double, double>> sx, sy;
-  auto seed_ring = [&](const Ring2d& ring) {
+  // Seed edges by the side the layer lies on: boxes start at an edge with layer on its +x side
+  // and stack towards +x (and the mirror image), so lines are closed under +dims from the one
+  // and -dims from the other. Closing both ways from every edge would add differences of box
+  // sides (e.g. 315 - 232 mm) and fill the layer with near-useless lines.
+  std::vector<std::pair<double, double>> sx[2], sy[2];  // [0]: layer on the + side, [1]: on the - side
+  auto seed_ring = [&](const Ring2d& ring, bool hole) {
     const std::size_t n = ring.size();
+    const double orient = (signed_area(ring) >= 0 ? 1.0 : -1.0) * (hole ? -1.0 : 1.0);  // +1: layer on the left
     for (std::size_t i = 0; i < n; ++i) {
       const Eigen::Vector2d a = ring[i], b = ring[(i + 1) % n];
       const double len = (b - a).norm();
       if (len < min_edge) continue;
       const double ang = std::atan2(std::abs(b.y() - a.y()), std::abs(b.x() - a.x()));
-      if (ang < axis_tol) sy.emplace_back((a.y() + b.y()) / 2, len);
-      if (ang > M_PI / 2 - axis_tol) sx.emplace_back((a.x() + b.x()) / 2, len);
+      // Left of the direction (dx, dy) is (-dy, dx).
+      if (ang < axis_tol) sy[orient * (b.x() - a.x()) > 0 ? 0 : 1].emplace_back((a.y() + b.y()) / 2, len);
+      if (ang > M_PI / 2 - axis_tol) sx[orient * (a.y() - b.y()) > 0 ? 0 : 1].emplace_back((a.x() + b.x()) / 2, len);
     }
   };
-  seed_ring(edges_.outer);
-  for (const auto& h : edges_.holes) seed_ring(h);
-  if (sx.empty() || sy.empty()) {
+  seed_ring(edges_.outer, false);
+  for (const auto& h : edges_.holes) seed_ring(h, true);
+  if ((sx[0].empty() && sx[1].empty()) || (sy[0].empty() && sy[1].empty())) {
     *reason = "the outline has no edge along the layout axes";
     return false;
   }
   bool capped = false;
-  xs_ = close_lines(sx, dims, bx0, bx1, tol_, &capped);
-  ys_ = close_lines(sy, dims, by0, by1, tol_, &capped);
+  std::vector<double> neg_dims;
+  for (double d : dims) neg_dims.push_back(-d);
+  auto close_both = [&](std::vector<std::pair<double, double>>* seeds, double lo, double hi) {
+    std::vector<double> a = close_lines(seeds[0], dims, lo, hi, tol_, &capped);
+    const std::vector<double> b = close_lines(seeds[1], neg_dims, lo, hi, tol_, &capped);
+    // Union, merged within the tolerance (a line from each side of the same gap is one line).
+    std::vector<std::pair<double, double>> all;
+    for (double v : a) all.emplace_back(v, 1.0);
+    for (double v : b) all.emplace_back(v, 1.0);
+    std::sort(all.begin(), all.end());
+    std::vector<double> out;
+    for (std::size_t i = 0; i < all.size();) {
+      std::size_t j = i;
+      double sum = 0;
+      while (j < all.size() && all[j].first - all[i].first <= tol_) sum += all[j++].first;
+      out.push_back(sum / static_cast<double>(j - i));
+      i = j;
+    }
+    return out;
+  };
+  xs_ = close_both(sx, bx0, bx1);
+  ys_ = close_both(sy, by0, by1);
   if (capped) {
     *reason = "too many candidate box positions for these formats";
     return false;
@@ -264,6 +294,18 @@ bool ProductSearch::build(std::string* reason) {
   }
   words_ = (ncells + 63) / 64;
   return true;
+}
+
+std::uint64_t ProductSearch::frontier_key(const Node& n, const std::uint64_t* o) const {
+  std::uint64_t h = 1469598103934665603ULL ^ static_cast<std::uint64_t>(n.cursor);
+  const auto first = static_cast<std::size_t>(n.cursor >> 6);
+  for (std::size_t w = first; w < words_; ++w) {
+    std::uint64_t v = o[w];
+    if (w == first) v &= ~std::uint64_t{0} << (n.cursor & 63);  // bits below the cursor are decided
+    h ^= v + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
+    h *= 1099511628211ULL;
+  }
+  return h;
 }
 
 bool ProductSearch::range_free(const std::uint64_t* occ, int start, int len) const {
@@ -356,6 +398,11 @@ ComponentSolution ProductSearch::run() {
   const double same_tol = 0.25 * std::sqrt(min_box_area_);
   auto quant = [](double b) { return static_cast<std::int64_t>(std::llround(b * 1e8)); };
 
+  struct Dominance {
+    double best = 0.0;
+    std::size_t count = 0;
+  };
+  std::unordered_map<std::uint64_t, Dominance> frontier;
   std::priority_queue<QueueItem> queue;
   nodes_.push_back({0, 0, 0, -1, -2, -1, 0, false});
   pool_.resize(words_, 0);
@@ -478,6 +525,19 @@ ComponentSolution ProductSearch::run() {
         nodes_.pop_back();
         pool_.resize(pool_.size() - words_);
         continue;
+      }
+      // Dominance: of the nodes sharing a frontier, only the few best pasts can lead to the
+      // best layout or to one of the kept near-equal alternatives.
+      if (!child.complete) {
+        auto& d = frontier[frontier_key(child, occ(idx))];
+        const double past = child.covered - child.penalty;
+        if (d.count > 0 && (past < d.best - margin || d.count > kMaxAlternatives)) {
+          nodes_.pop_back();
+          pool_.resize(pool_.size() - words_);
+          continue;
+        }
+        d.best = d.count == 0 ? past : std::max(d.best, past);
+        ++d.count;
       }
       const int ci = static_cast<int>(idx);
       if (score_of(ci) > score_of(best_seen) || (child.complete && !nodes_[static_cast<std::size_t>(best_seen)].complete &&

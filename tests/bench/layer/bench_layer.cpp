@@ -1,4 +1,6 @@
-// palletd_bench_layer [--count N] [--seed S] [--profiles a,b,...]
+// palletd_bench_layer [--count N] [--seed S] [--profiles a,b,...] [--no-sweep] [--stages] [--why] [--dump DIR]
+// --why: where the outline error lies (false/missed area widths, signed outline offsets by
+// whether an edge faces the camera); --stages: CPU time per stage; --dump: debug pictures.
 // Accuracy and speed of extract_layer() on simulator frames (every profile, tilt up to 30 deg,
 // every pattern, fill 0.3-1), and a hole / cluster sweep on analytic scenes.
 #include <algorithm>
@@ -41,8 +43,115 @@ double quantile(std::vector<double> v, double q) {
   return v[i];
 }
 
+/// Where the outline error lies, as widths along the truth outline [mm]: false area inside the
+/// gaps between truth boxes (closed by 20 mm), false area elsewhere outside, missed area.
+struct Breakdown {
+  double fp_gap_mm = 0.0, fp_out_mm = 0.0, fn_mm = 0.0;
+};
+
+Breakdown breakdown(const std::vector<PolygonWithHoles>& polygons, const std::vector<std::vector<Eigen::Vector2d>>& truth) {
+  const double cell = 0.001;
+  Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
+  double perimeter = 0.0;
+  for (const auto& t : truth)
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      lo = lo.cwiseMin(t[k]);
+      hi = hi.cwiseMax(t[k]);
+      perimeter += (t[(k + 1) % t.size()] - t[k]).norm();
+    }
+  for (const auto& p : polygons)
+    for (const auto& q : p.outer) {
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
+    }
+  lo -= Eigen::Vector2d(0.05, 0.05);
+  hi += Eigen::Vector2d(0.05, 0.05);
+  const int w = static_cast<int>((hi.x() - lo.x()) / cell), h = static_cast<int>((hi.y() - lo.y()) / cell);
+  Breakdown b;
+  if (w <= 0 || h <= 0 || static_cast<long>(w) * h > 40'000'000L || perimeter <= 0.0) return b;
+  auto px = [&](const std::vector<Eigen::Vector2d>& ring) {
+    std::vector<cv::Point> out;
+    for (const auto& q : ring)
+      out.emplace_back(static_cast<int>(std::lround((q.x() - lo.x()) / cell * 256)), static_cast<int>(std::lround((q.y() - lo.y()) / cell * 256)));
+    return out;
+  };
+  cv::Mat det(h, w, CV_8U, cv::Scalar(0)), tru(h, w, CV_8U, cv::Scalar(0));
+  for (const auto& p : polygons) {
+    cv::Mat one(h, w, CV_8U, cv::Scalar(0));
+    cv::fillPoly(one, std::vector<std::vector<cv::Point>>{px(p.outer)}, cv::Scalar(255), cv::LINE_8, 8);
+    for (const auto& hole : p.holes) cv::fillPoly(one, std::vector<std::vector<cv::Point>>{px(hole)}, cv::Scalar(0), cv::LINE_8, 8);
+    cv::bitwise_or(det, one, det);
+  }
+  for (const auto& t : truth) cv::fillPoly(tru, std::vector<std::vector<cv::Point>>{px(t)}, cv::Scalar(255), cv::LINE_8, 8);
+  cv::Mat closed, fp, fn, gap;
+  cv::morphologyEx(tru, closed, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(21, 21)));
+  cv::bitwise_and(det, ~tru, fp);
+  cv::bitwise_and(tru, ~det, fn);
+  cv::bitwise_and(fp, closed, gap);
+  const double to_mm = cell * cell / perimeter * 1000.0;
+  b.fp_gap_mm = cv::countNonZero(gap) * to_mm;
+  b.fp_out_mm = (cv::countNonZero(fp) - cv::countNonZero(gap)) * to_mm;
+  b.fn_mm = cv::countNonZero(fn) * to_mm;
+  return b;
+}
+
+bool inside_ring(const std::vector<Eigen::Vector2d>& r, const Eigen::Vector2d& q) {
+  bool in = false;
+  for (std::size_t i = 0, j = r.size() - 1; i < r.size(); j = i++)
+    if ((r[i].y() > q.y()) != (r[j].y() > q.y()) &&
+        q.x() < (r[j].x() - r[i].x()) * (q.y() - r[i].y()) / (r[j].y() - r[i].y()) + r[i].x())
+      in = !in;
+  return in;
+}
+
+double seg_dist(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& q) {
+  const Eigen::Vector2d d = b - a;
+  const double t = std::clamp((q - a).dot(d) / std::max(d.squaredNorm(), 1e-12), 0.0, 1.0);
+  return (a + t * d - q).norm();
+}
+
+/// Signed offsets [mm] of the detected outline from the truth outline edges (+ = detection
+/// outside), binned by whether the edge faces the camera (0), faces away (1), or is seen sideways (2).
+void edge_offsets(const std::vector<PolygonWithHoles>& polygons, const std::vector<std::vector<Eigen::Vector2d>>& truth,
+                  const Eigen::Vector2d& camera_xy, std::vector<double> (&bins)[3]) {
+  for (const auto& t : truth) {
+    const double a = signed_area(t);
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      const Eigen::Vector2d p0 = t[k], p1 = t[(k + 1) % t.size()];
+      const Eigen::Vector2d dir = (p1 - p0).normalized();
+      Eigen::Vector2d n(dir.y(), -dir.x());
+      if (a < 0.0) n = -n;  // outward
+      for (double f = 0.2; f <= 0.81; f += 0.1) {
+        const Eigen::Vector2d q = p0 + f * (p1 - p0);
+        bool covered = false;
+        for (const auto& o : truth) covered = covered || inside_ring(o, q + 0.02 * n);
+        if (covered) continue;  // an inner seam
+        bool in = false;
+        double best = 1e9;
+        for (const auto& poly : polygons) {
+          bool here = inside_ring(poly.outer, q);
+          for (const auto& h : poly.holes) here = here && !inside_ring(h, q);
+          in = in || here;
+          auto scan = [&](const std::vector<Eigen::Vector2d>& r) {
+            for (std::size_t i = 0; i < r.size(); ++i) best = std::min(best, seg_dist(r[i], r[(i + 1) % r.size()], q));
+          };
+          scan(poly.outer);
+          for (const auto& h : poly.holes) scan(h);
+        }
+        if (best > 0.05) continue;
+        const Eigen::Vector2d to_cam = camera_xy - q;
+        const double c = to_cam.norm() > 1e-6 ? n.dot(to_cam.normalized()) : 0.0;
+        const int bin = c > 0.5 ? 0 : (c < -0.5 ? 1 : 2);
+        bins[bin].push_back(1000.0 * (in ? best : -best));
+      }
+    }
+  }
+}
+
 struct Stats {
+  std::vector<double> edge[3];
   int frames = 0, ok = 0;
+  std::vector<double> fp_gap, fp_out, fn;
   std::vector<double> iou, height_mm, normal_deg, time_ms, plane_ms, layer_ms, contour_ms;
 };
 
@@ -109,6 +218,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> profiles;
   bool do_sweep = true;
   bool stage_times = false;
+  bool why = false;  // where the outline error lies (per profile)
   std::vector<double> stage_ms[3];
   std::string dump_dir;  // debug pictures of frames below IoU 0.95 (bench only; detection writes nothing)
   for (int i = 1; i < argc; ++i) {
@@ -118,9 +228,10 @@ int main(int argc, char** argv) {
     else if (a == "--profiles" && i + 1 < argc) profiles = split(argv[++i]);
     else if (a == "--no-sweep") do_sweep = false;
     else if (a == "--stages") stage_times = true;
+    else if (a == "--why") why = true;
     else if (a == "--dump" && i + 1 < argc) dump_dir = argv[++i];
     else {
-      std::fprintf(stderr, "usage: palletd_bench_layer [--count N] [--seed S] [--profiles a,b] [--no-sweep]\n");
+      std::fprintf(stderr, "usage: palletd_bench_layer [--count N] [--seed S] [--profiles a,b] [--no-sweep] [--stages] [--why] [--dump DIR]\n");
       return 2;
     }
   }
@@ -203,7 +314,7 @@ int main(int argc, char** argv) {
         stage_ms[0].push_back(c1 - c);
         if (top.status == DetectionStatus::ok) {
           c = c1;
-          layer::LayerMask lm = layer::layer_mask(cloud, top.plane, layer::default_passthrough_tolerance(top.sigma_m), PlaneParams{});
+          layer::LayerMask lm = layer::layer_mask(cloud, top.plane, layer::BandTable(top.noise, 0.0), PlaneParams{});
           c1 = thread_cpu_ms();
           stage_ms[1].push_back(c1 - c);
           c = c1;
@@ -233,6 +344,13 @@ int main(int argc, char** argv) {
       }
       const double iou = testing::polygon_iou(r.polygons, truth, 0.001);
       st.iou.push_back(iou);
+      if (why) {
+        const Breakdown bd = breakdown(r.polygons, truth);
+        st.fp_gap.push_back(bd.fp_gap_mm);
+        st.fp_out.push_back(bd.fp_out_mm);
+        st.fn.push_back(bd.fn_mm);
+        edge_offsets(r.polygons, truth, (T_layer_camera * Eigen::Vector3d::Zero()).head<2>(), st.edge);
+      }
       if (iou < 0.95) {
         double a_det = 0.0, a_truth = 0.0;
         for (const auto& p : r.polygons) a_det += area(p);
@@ -245,6 +363,14 @@ int main(int argc, char** argv) {
       st.normal_deg.push_back(std::acos(std::clamp(std::abs(r.plane_camera.normal.dot(f.truth.layer_plane.normal)), 0.0, 1.0)) * 180.0 / kPi);
     }
     print_row(profile, st);
+    if (why)
+      std::printf("    error widths along the truth outline, median [mm]: false in gaps %.2f, false outside %.2f, missed %.2f\n",
+                  quantile(st.fp_gap, 0.5), quantile(st.fp_out, 0.5), quantile(st.fn, 0.5));
+    if (why)
+      for (int b = 0; b < 3; ++b)
+        std::printf("    outline offset, edges %s: median %+.2f mm, p10 %+.2f, p90 %+.2f (%zu samples)\n",
+                    b == 0 ? "facing the camera" : (b == 1 ? "facing away      " : "seen sideways    "),
+                    quantile(st.edge[b], 0.5), quantile(st.edge[b], 0.1), quantile(st.edge[b], 0.9), st.edge[b].size());
     auto append = [](std::vector<double>& a, const std::vector<double>& b) { a.insert(a.end(), b.begin(), b.end()); };
     all.frames += st.frames;
     all.ok += st.ok;

@@ -1,0 +1,171 @@
+// Robust edge-line fits and the joint least-squares fit of a layout's boxes (see refine_joint.hpp).
+#include "refine_joint.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace palletd::layout_detail {
+
+namespace {
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
+EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref, double floor_m, int min_samples) {
+  EdgeLine line;
+  const auto n = samples.size();
+  if (n < static_cast<std::size_t>(std::max(min_samples, 2))) return line;
+  std::vector<double> p(n), w(n, 1.0), r(n);
+  for (std::size_t i = 0; i < n; ++i) p[i] = samples[i].y();
+  double a = median_of(p), b = 0.0, tm = t_ref;  // p = a + b (t - tm)
+  double scale = floor_m;
+  constexpr double kTukey = 4.685;
+  for (int it = 0; it < 10; ++it) {
+    for (std::size_t i = 0; i < n; ++i) r[i] = samples[i].y() - (a + b * (samples[i].x() - tm));
+    std::vector<double> absr(n);
+    for (std::size_t i = 0; i < n; ++i) absr[i] = std::abs(r[i]);
+    // The first pass starts from a flat line: let its scale cover a real slope.
+    scale = std::max(1.4826 * median_of(absr), floor_m);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double u = r[i] / (kTukey * scale);
+      w[i] = std::abs(u) < 1.0 ? (1 - u * u) * (1 - u * u) : 0.0;
+    }
+    double sw = 0, st = 0, sp = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      sw += w[i]; st += w[i] * samples[i].x(); sp += w[i] * samples[i].y();
+    }
+    if (sw <= 0) return line;
+    tm = st / sw;
+    const double pm = sp / sw;
+    double stt = 0, stp = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dt = samples[i].x() - tm;
+      stt += w[i] * dt * dt;
+      stp += w[i] * dt * (samples[i].y() - pm);
+    }
+    const double nb = stt > 1e-12 ? stp / stt : 0.0;
+    const bool converged = std::abs(pm - a) < 1e-6 * scale && std::abs(nb - b) < 1e-9;
+    a = pm;
+    b = nb;
+    if (converged && it > 2) break;
+  }
+  int inliers = 0;
+  double stt = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (w[i] <= 0) continue;
+    ++inliers;
+    stt += (samples[i].x() - tm) * (samples[i].x() - tm);
+  }
+  if (inliers < std::max(min_samples, 2)) return line;
+  line.ok = true;
+  line.scale_m = scale;
+  line.inliers = inliers;
+  line.slope = b;
+  line.offset_m = a + b * (t_ref - tm);
+  const double var_a = scale * scale / inliers;
+  const double var_b = stt > 1e-12 ? scale * scale / stt : 1.0;
+  line.sigma_slope = std::sqrt(var_b);
+  line.sigma_offset_m = std::sqrt(var_a + (t_ref - tm) * (t_ref - tm) * var_b);
+  return line;
+}
+
+namespace {
+
+/// One axis of the joint fit: unknowns c_0..c_{n-1}, h_0..h_{n-1} (centre and half size).
+void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
+                const std::vector<Contact>& contacts, const JointParams& params, int axis) {
+  const auto n = static_cast<Eigen::Index>(boxes.size());
+  if (n == 0) return;
+  std::vector<double> robust(sides.size(), 1.0);
+  std::vector<bool> held(boxes.size(), false);
+  std::vector<double> held_half(boxes.size(), 0.0);
+  const double c_anchor = 1.0 / (params.anchor_sigma_m * params.anchor_sigma_m);
+  const double half_sigma = 0.5 * params.size_sigma_m;
+  const double c_size = 1.0 / (half_sigma * half_sigma);
+  const double c_held = 1e12;
+  std::vector<double> c0(boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) c0[i] = boxes[i].center[axis];
+  Eigen::VectorXd x(2 * n);
+  for (int round = 0; round < 6; ++round) {
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(2 * n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      A(i, i) += c_anchor;
+      rhs(i) += c_anchor * c0[ui];
+      const double hw = held[ui] ? c_held : c_size;
+      const double hv = held[ui] ? held_half[ui] : boxes[ui].half_nominal[axis];
+      A(n + i, n + i) += hw;
+      rhs(n + i) += hw * hv;
+    }
+    for (std::size_t k = 0; k < sides.size(); ++k) {
+      const SideObservation& s = sides[k];
+      if (s.axis != axis) continue;
+      const double w = robust[k] / (s.sigma_m * s.sigma_m);
+      const Eigen::Index ic = s.box, ih = n + s.box;
+      const double sg = s.sign;
+      // c + sign * h = pos
+      A(ic, ic) += w; A(ic, ih) += w * sg; A(ih, ic) += w * sg; A(ih, ih) += w;
+      rhs(ic) += w * s.pos_m;
+      rhs(ih) += w * sg * s.pos_m;
+    }
+    for (const Contact& c : contacts) {
+      if (c.axis != axis) continue;
+      // (c_b - h_b) - (c_a + h_a) = 0: coefficients on c_a, h_a, c_b, h_b
+      const Eigen::Index idx[4] = {c.a, n + c.a, c.b, n + c.b};
+      const double coef[4] = {-1.0, -1.0, 1.0, -1.0};
+      const double w = 1.0 / (c.sigma_m * c.sigma_m);
+      for (int p = 0; p < 4; ++p)
+        for (int q = 0; q < 4; ++q) A(idx[p], idx[q]) += w * coef[p] * coef[q];
+    }
+    x = A.ldlt().solve(rhs);
+    if (!x.allFinite()) return;
+    // Huber weights on the side observations (a wrong seam must not drag a whole row).
+    bool changed = false;
+    for (std::size_t k = 0; k < sides.size(); ++k) {
+      const SideObservation& s = sides[k];
+      if (s.axis != axis) continue;
+      const double res = x(s.box) + s.sign * x(n + s.box) - s.pos_m;
+      const double z = std::abs(res) / s.sigma_m;
+      const double w = z > 3.0 ? 3.0 / z : 1.0;
+      if (std::abs(w - robust[k]) > 0.05) changed = true;
+      robust[k] = w;
+    }
+    // Sizes outside the tolerance are held at its bound.
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      const double nom = boxes[ui].half_nominal[axis];
+      const double lo = nom - 0.5 * params.size_tolerance_m, hi = nom + 0.5 * params.size_tolerance_m;
+      if (!held[ui] && (x(n + i) < lo || x(n + i) > hi)) {
+        held[ui] = true;
+        held_half[ui] = std::clamp(x(n + i), lo, hi);
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    boxes[ui].center[axis] = x(i);
+    const double nom = boxes[ui].half_nominal[axis];
+    boxes[ui].half[axis] = std::clamp(x(n + i), nom - 0.5 * params.size_tolerance_m, nom + 0.5 * params.size_tolerance_m);
+  }
+}
+
+}  // namespace
+
+void solve_joint(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
+                 const std::vector<Contact>& contacts, const JointParams& params) {
+  solve_axis(boxes, sides, contacts, params, 0);
+  solve_axis(boxes, sides, contacts, params, 1);
+}
+
+}  // namespace palletd::layout_detail

@@ -1,0 +1,67 @@
+// Refinement internals (private to the layout stage): robust edge-line fits and the joint
+// least-squares fit of all boxes of a layout component in its layout frame.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace palletd::layout_detail {
+
+/// A straight box side measured from samples (t along the side, p across it):
+/// p = offset_m + slope * (t - t_ref).
+struct EdgeLine {
+  bool ok = false;
+  double offset_m = 0.0;        ///< across position at t_ref [m]
+  double slope = 0.0;           ///< dp/dt [rad, small angle]
+  double sigma_offset_m = 0.0;  ///< standard error of offset_m [m]
+  double sigma_slope = 0.0;     ///< standard error of slope
+  double scale_m = 0.0;         ///< robust residual scale (MAD, floored) [m]
+  int inliers = 0;              ///< samples with non-zero weight
+};
+
+/// Robust line fit (Tukey biweight, scale from the MAD of the residuals, floored at floor_m,
+/// the quantisation of the samples). Fails (ok = false) with fewer than min_samples samples
+/// or fewer than min_samples inliers.
+EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref, double floor_m,
+                       int min_samples = 5);
+
+/// One box of the joint fit in the layout frame: axis-aligned, sides at center +- half.
+struct JointBox {
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();        ///< [m]
+  Eigen::Vector2d half = Eigen::Vector2d::Zero();          ///< half extents along frame x, y [m]
+  Eigen::Vector2d half_nominal = Eigen::Vector2d::Zero();  ///< nominal format, same axes [m]
+};
+
+/// A measured box side: the side of box `box` normal to `axis` (0: frame x) on side `sign`
+/// (-1 / +1) lies at pos_m +- sigma_m.
+struct SideObservation {
+  int box = 0;
+  int axis = 0;
+  int sign = 1;
+  double pos_m = 0.0;
+  double sigma_m = 0.001;
+};
+
+/// Two neighbours pressed together where no seam is seen: the +side of box a touches the
+/// -side of box b along `axis` (gap 0 +- sigma_m).
+struct Contact {
+  int a = 0;
+  int b = 0;
+  int axis = 0;
+  double sigma_m = 0.001;
+};
+
+struct JointParams {
+  double size_sigma_m = 0.005;      ///< prior spread of a real side length around nominal [m]
+  double size_tolerance_m = 0.010;  ///< a side length stays within nominal +- this [m]
+  double anchor_sigma_m = 0.05;     ///< weak prior keeping an unmeasured box where it was [m]
+};
+
+/// Fits every box centre and half size along both frame axes to the side observations,
+/// contacts and priors (linear least squares, Huber-reweighted side observations; sizes
+/// clamped to the tolerance and the fit repeated with clamped sizes held).
+void solve_joint(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
+                 const std::vector<Contact>& contacts, const JointParams& params);
+
+}  // namespace palletd::layout_detail

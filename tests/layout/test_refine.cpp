@@ -1,0 +1,244 @@
+// Refinement (issue 5): the joint fit of a layout's boxes to outline points and seam lines.
+// Seeded synthetic layers: true boxes with gaps, size deviations and small yaw; the search's
+// answer is the packed nominal grid; refine_layout must recover the true poses.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "../../src/detection/layout/refine_joint.hpp"
+#include "palletd/layout.hpp"
+
+using namespace palletd;
+
+namespace {
+
+struct TrueBox {
+  Eigen::Vector2d center;
+  double long_m, short_m, yaw_rad;
+};
+
+bool inside(const TrueBox& b, const Eigen::Vector2d& p) {
+  const double c = std::cos(b.yaw_rad), s = std::sin(b.yaw_rad);
+  const Eigen::Vector2d d = p - b.center;
+  return std::abs(c * d.x() + s * d.y()) <= b.long_m / 2 && std::abs(-s * d.x() + c * d.y()) <= b.short_m / 2;
+}
+
+/// A patch on a box top that looks like a seam in the raster (label edge, tape) [layer frame].
+struct Patch {
+  double x0, y0, x1, y1;
+};
+
+struct Scene {
+  std::vector<TrueBox> truth;
+  LayoutResult found;
+  LayerResult layer;
+  SeamEvidence seams;
+};
+
+/// cols x rows boxes of 400 x 300 (long along x). gaps_x[c] is the gap after column c.
+/// The layer outline is the rectangle around all boxes; the search's answer is the nominal
+/// grid packed against the outline's lower-left corner.
+Scene make_block(int cols, int rows, const std::vector<double>& gaps_x, const std::vector<double>& gaps_y,
+                 double size_dev_m, double jitter_m, double yaw_dev_rad, std::mt19937& rng,
+                 const std::vector<Patch>& patches = {}, double pitch_m = 0.003) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Scene s;
+  const double L = 0.4, S = 0.3;
+  double x = 0;
+  std::vector<double> xs, ys;
+  for (int c = 0; c < cols; ++c) { xs.push_back(x); x += L + (c < cols - 1 ? gaps_x[static_cast<std::size_t>(c)] : 0); }
+  double y = 0;
+  for (int r = 0; r < rows; ++r) { ys.push_back(y); y += S + (r < rows - 1 ? gaps_y[static_cast<std::size_t>(r)] : 0); }
+  double bx0 = 1e9, by0 = 1e9, bx1 = -1e9, by1 = -1e9;
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      TrueBox b;
+      b.long_m = L + size_dev_m * u(rng);
+      b.short_m = S + size_dev_m * u(rng);
+      b.yaw_rad = yaw_dev_rad * u(rng);
+      b.center = Eigen::Vector2d(xs[static_cast<std::size_t>(c)] + L / 2 + jitter_m * u(rng),
+                                 ys[static_cast<std::size_t>(r)] + S / 2 + jitter_m * u(rng));
+      s.truth.push_back(b);
+      const double ex = b.long_m / 2 * std::abs(std::cos(b.yaw_rad)) + b.short_m / 2 * std::abs(std::sin(b.yaw_rad));
+      const double ey = b.long_m / 2 * std::abs(std::sin(b.yaw_rad)) + b.short_m / 2 * std::abs(std::cos(b.yaw_rad));
+      bx0 = std::min(bx0, b.center.x() - ex); bx1 = std::max(bx1, b.center.x() + ex);
+      by0 = std::min(by0, b.center.y() - ey); by1 = std::max(by1, b.center.y() + ey);
+    }
+  }
+  s.layer.status = DetectionStatus::ok;
+  s.layer.polygons.push_back(PolygonWithHoles{{{bx0, by0}, {bx1, by0}, {bx1, by1}, {bx0, by1}}, {}});
+  // Layer points on a pixel grid (random phase), only on box tops.
+  const double ox = pitch_m * (u(rng) + 1) / 2, oy = pitch_m * (u(rng) + 1) / 2;
+  for (double py = by0 - 0.01 + oy; py < by1 + 0.01; py += pitch_m) {
+    for (double px = bx0 - 0.01 + ox; px < bx1 + 0.01; px += pitch_m) {
+      const Eigen::Vector2d p(px, py);
+      for (const auto& b : s.truth) {
+        if (inside(b, p)) {
+          s.layer.points_2d.emplace_back(static_cast<float>(px), static_cast<float>(py));
+          break;
+        }
+      }
+    }
+  }
+  // Seam raster: the share of each cell not covered by a box top (or covered by a patch),
+  // zero within two cells of the outline (as build_seam_evidence does).
+  SeamEvidence& ev = s.seams;
+  ev.cell_m = pitch_m;
+  ev.origin_m = {bx0 - 0.02, by0 - 0.02};
+  ev.width = static_cast<int>((bx1 - bx0 + 0.04) / pitch_m) + 1;
+  ev.height = static_cast<int>((by1 - by0 + 0.04) / pitch_m) + 1;
+  ev.seam.assign(static_cast<std::size_t>(ev.width) * static_cast<std::size_t>(ev.height), 0.f);
+  std::size_t seamy = 0;
+  for (int iy = 0; iy < ev.height; ++iy) {
+    for (int ix = 0; ix < ev.width; ++ix) {
+      const double cx0 = ev.origin_m.x() + ix * pitch_m, cy0 = ev.origin_m.y() + iy * pitch_m;
+      if (cx0 < bx0 + 2 * pitch_m || cy0 < by0 + 2 * pitch_m || cx0 + pitch_m > bx1 - 2 * pitch_m ||
+          cy0 + pitch_m > by1 - 2 * pitch_m)
+        continue;
+      int open = 0;
+      for (int sy = 0; sy < 4; ++sy) {
+        for (int sx = 0; sx < 4; ++sx) {
+          const Eigen::Vector2d p(cx0 + (sx + 0.5) * pitch_m / 4, cy0 + (sy + 0.5) * pitch_m / 4);
+          bool top = false;
+          for (const auto& b : s.truth) top = top || inside(b, p);
+          for (const auto& q : patches) top = top && !(p.x() >= q.x0 && p.x() <= q.x1 && p.y() >= q.y0 && p.y() <= q.y1);
+          open += top ? 0 : 1;
+        }
+      }
+      const float v = static_cast<float>(open) / 16.f;
+      ev.seam[static_cast<std::size_t>(iy) * static_cast<std::size_t>(ev.width) + static_cast<std::size_t>(ix)] = v;
+      if (v > 0.5f) ++seamy;
+    }
+  }
+  ev.strength = static_cast<double>(seamy) / static_cast<double>(ev.seam.size());
+  // The search's answer: nominal boxes packed from the outline's lower-left corner.
+  s.found.status = DetectionStatus::ok;
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      Box2d b;
+      b.center = Eigen::Vector2d(bx0 + (c + 0.5) * L, by0 + (r + 0.5) * S);
+      b.yaw_rad = 0.0;
+      b.long_m = L;
+      b.short_m = S;
+      b.format = 0;
+      s.found.boxes.push_back(b);
+      s.found.box_component.push_back(0);
+      s.found.box_scores.push_back(1.0);
+    }
+  }
+  return s;
+}
+
+const std::vector<BoxFormat> kFormats{BoxFormat{0.4, 0.3, "400x300"}};
+
+struct Errors {
+  double max_pos_m = 0, max_yaw_rad = 0;
+};
+
+Errors errors(const Scene& s, const LayoutResult& r) {
+  Errors e;
+  REQUIRE(r.boxes.size() == s.truth.size());
+  for (std::size_t i = 0; i < s.truth.size(); ++i) {
+    e.max_pos_m = std::max(e.max_pos_m, (r.boxes[i].center - s.truth[i].center).norm());
+    e.max_yaw_rad = std::max(e.max_yaw_rad, std::abs(std::remainder(r.boxes[i].yaw_rad - s.truth[i].yaw_rad, M_PI)));
+  }
+  return e;
+}
+
+Errors refine_errors(const Scene& s) {
+  LayoutParams params;
+  return errors(s, refine_layout(s.found, s.layer, kFormats, &s.seams, params));
+}
+
+}  // namespace
+
+TEST_CASE("refine: a block with seams of different widths reaches millimetres", "[refine]") {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 4; ++trial) {
+    std::uniform_real_distribution<double> gap(0.004, 0.015);
+    const Scene s = make_block(3, 3, {gap(rng), gap(rng)}, {gap(rng), gap(rng)}, 0.003, 0.002, 0.0, rng);
+    const Errors before = errors(s, s.found);
+    const Errors after = refine_errors(s);
+    INFO("trial " << trial << " before " << before.max_pos_m * 1000 << " mm, after " << after.max_pos_m * 1000 << " mm");
+    CHECK(before.max_pos_m > 0.006);  // the packed nominal grid is visibly off
+    CHECK(after.max_pos_m < 0.0015);
+  }
+}
+
+TEST_CASE("refine: interior box of a 3x3 block without outline edge is fitted to its seams", "[refine]") {
+  std::mt19937 rng(9);
+  const Scene s = make_block(3, 3, {0.012, 0.006}, {0.010, 0.008}, 0.002, 0.0, 0.0, rng);
+  LayoutParams params;
+  const LayoutResult r = refine_layout(s.found, s.layer, kFormats, &s.seams, params);
+  // Box 4 is the centre box: all four sides are seams.
+  CHECK((r.boxes[4].center - s.truth[4].center).norm() < 0.0015);
+  CHECK(std::abs(r.boxes[4].long_m - s.truth[4].long_m) < 0.002);
+  CHECK(std::abs(r.boxes[4].short_m - s.truth[4].short_m) < 0.002);
+}
+
+TEST_CASE("refine: per-box yaw follows the sides", "[refine]") {
+  std::mt19937 rng(21);
+  const double deg = M_PI / 180.0;
+  const Scene s = make_block(3, 2, {0.010, 0.012}, {0.012}, 0.002, 0.001, 1.0 * deg, rng);
+  const Errors after = refine_errors(s);
+  double max_true_yaw = 0;
+  for (const auto& b : s.truth) max_true_yaw = std::max(max_true_yaw, std::abs(b.yaw_rad));
+  INFO("max true yaw " << max_true_yaw / deg << " deg, max error " << after.max_yaw_rad / deg << " deg");
+  CHECK(max_true_yaw > 0.5 * deg);
+  CHECK(after.max_yaw_rad < 0.25 * deg);
+  CHECK(after.max_pos_m < 0.002);
+}
+
+TEST_CASE("refine: boxes pressed together (no seam) touch their neighbour at nominal size", "[refine]") {
+  std::mt19937 rng(3);
+  // Columns 0 and 1 pressed together, a 12 mm seam after column 1; sizes exactly nominal.
+  const Scene s = make_block(3, 1, {0.0, 0.012}, {}, 0.0, 0.0, 0.0, rng);
+  const Errors after = refine_errors(s);
+  CHECK(after.max_pos_m < 0.002);
+}
+
+TEST_CASE("refine: labels and tape near box sides do not pull the sides", "[refine]") {
+  std::mt19937 rng(17);
+  // Seam-like patches on box tops: a label whose edge runs 15 mm inside a side along a third
+  // of it, and a tape strip across the middle box.
+  std::vector<Patch> patches{{0.385, 0.05, 0.40, 0.15}, {0.60, 0.0, 0.65, 0.30}};
+  const Scene s = make_block(3, 1, {0.010, 0.010}, {}, 0.002, 0.0, 0.0, rng, patches);
+  const Errors after = refine_errors(s);
+  CHECK(after.max_pos_m < 0.002);
+}
+
+TEST_CASE("refine: robust edge line ignores outlier samples", "[refine]") {
+  std::mt19937 rng(1);
+  std::normal_distribution<double> noise(0.0, 0.001);
+  std::vector<Eigen::Vector2d> samples;
+  for (int k = 0; k < 100; ++k) {
+    const double t = -0.2 + 0.004 * k;
+    double p = 0.15 + 0.01 * t + noise(rng);
+    if (k % 4 == 0) p -= 0.02;  // a quarter of the slices hit a label edge
+    samples.emplace_back(t, p);
+  }
+  const layout_detail::EdgeLine line = layout_detail::fit_edge_line(samples, 0.0, 0.0005);
+  REQUIRE(line.ok);
+  CHECK(std::abs(line.offset_m - 0.15) < 0.0005);
+  CHECK(std::abs(line.slope - 0.01) < 0.002);
+  CHECK(line.inliers >= 70);
+  CHECK(line.inliers <= 80);
+}
+
+TEST_CASE("refine: joint solve chains a pressed row to its measured ends", "[refine]") {
+  using namespace layout_detail;
+  // Three boxes in a row; only the outer sides are measured, the two seams are unseen.
+  std::vector<JointBox> boxes(3);
+  for (int i = 0; i < 3; ++i) {
+    boxes[static_cast<std::size_t>(i)].center = Eigen::Vector2d(0.2 + 0.4 * i + 0.01, 0.15);
+    boxes[static_cast<std::size_t>(i)].half = boxes[static_cast<std::size_t>(i)].half_nominal = Eigen::Vector2d(0.2, 0.15);
+  }
+  std::vector<SideObservation> sides{{0, 0, -1, 0.003, 0.0005}, {2, 0, 1, 1.203, 0.0005}};
+  std::vector<Contact> contacts{{0, 1, 0, 0.001}, {1, 2, 0, 0.001}};
+  solve_joint(boxes, sides, contacts, JointParams{});
+  CHECK(boxes[0].center.x() == Approx(0.203).margin(0.0005));
+  CHECK(boxes[1].center.x() == Approx(0.603).margin(0.0005));
+  CHECK(boxes[2].center.x() == Approx(1.003).margin(0.0005));
+  CHECK(boxes[1].half.x() == Approx(0.2).margin(0.0005));
+}
