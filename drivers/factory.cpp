@@ -2,6 +2,7 @@
 #include <stdexcept>
 
 #include "aravis/aravis_camera.hpp"
+#include "openni2/openni2_camera.hpp"
 #include "palletd/camera.hpp"
 #include "palletd/config.hpp"
 #include "replay/replay_camera.hpp"
@@ -40,7 +41,21 @@ std::unique_ptr<Camera> make_camera(const CameraConfig& config) {
     return std::make_unique<AravisCamera>(std::move(o));
   }
   if (config.driver == "openni2") {
-    throw std::invalid_argument("camera.driver: openni2 is not available in this build (see docs/cameras.md)");
+    const OpenNI2CameraConfig& n = config.openni2;
+    if (n.depth_unit_m != 0.001 && n.depth_unit_m != 0.0001) {
+      throw std::invalid_argument("camera.openni2.depth_unit_m: " + std::to_string(n.depth_unit_m) +
+                                  " (expected 0.001 for 1 mm or 0.0001 for 100 um)");
+    }
+    OpenNI2Options o;
+    o.uri = n.uri;
+    o.width = n.width;
+    o.height = n.height;
+    o.fps = n.fps;
+    o.depth_unit_m = n.depth_unit_m;
+    o.ir_as_intensity = n.ir_as_intensity;
+    o.loop = n.loop;
+    o.intrinsics_override = config.intrinsics_override;
+    return std::make_unique<OpenNI2Camera>(std::move(o));
   }
   throw std::invalid_argument("camera.driver: unknown driver '" + config.driver +
                               "' (expected replay, aravis or openni2)");

@@ -1,10 +1,12 @@
 #include "replay/replay_camera.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <thread>
 #include <utility>
 
 #include "palletd/frame_io.hpp"
+#include "replay/cloud_frame.hpp"
 
 namespace palletd {
 
@@ -31,9 +33,15 @@ Status ReplayCamera::list_stems() {
   }
   Expected<std::vector<std::string>> stems = list_frame_stems(options_.directory);
   if (!stems) return Error{"replay folder " + options_.directory + ": " + stems.error()};
-  if (stems->empty()) {
-    return Error{"replay folder " + options_.directory + " holds no frames (no *.depth.png)"};
+  // Organized clouds (*.pcd, *.ply) play in name order among the frames.
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(options_.directory, ec)) {
+    if (entry.is_regular_file(ec) && is_cloud_path(entry.path().string())) stems->push_back(entry.path().string());
   }
+  if (stems->empty()) {
+    return Error{"replay folder " + options_.directory + " holds no frames (no *.depth.png, *.pcd or *.ply)"};
+  }
+  std::sort(stems->begin(), stems->end());
   stems_ = std::move(stems.value());
   return {};
 }
@@ -115,7 +123,7 @@ Expected<Frame> ReplayCamera::do_grab(std::chrono::milliseconds timeout) {
   }
 
   const std::string& stem = stems_[next_index_++];
-  Expected<Frame> frame = read_frame(stem);
+  Expected<Frame> frame = is_cloud_path(stem) ? read_cloud_frame(stem) : read_frame(stem);
   if (!frame) {
     incomplete_++;
     return Error{"replay frame " + stem + ": " + frame.error()};

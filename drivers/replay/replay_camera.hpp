@@ -19,8 +19,9 @@ struct ReplayOptions {
   std::optional<Intrinsics> intrinsics_override;
 };
 
-/// Plays a folder of frames. A bad frame file fails that grab (the error names the file) and
-/// the next grab goes on with the next frame; a folder that disappears faults the camera.
+/// Plays a folder of frames (and organized *.pcd / *.ply clouds, see cloud_frame.hpp) in name
+/// order. A bad frame file fails that grab (the error names the file) and the next grab goes
+/// on with the next frame; a folder that disappears faults the camera.
 /// At a set rate, frames are paced at rate_hz and never dropped (a late caller gets the next
 /// frame at once). In trigger mode, each software_trigger() releases one frame.
 class ReplayCamera final : public Camera {

@@ -39,6 +39,7 @@ struct OpenNI2CameraConfig {
   int width = 640, height = 480, fps = 30;
   double depth_unit_m = 0.001;  ///< 0.001 (1 mm) or 0.0001 (100 um) [m]
   bool ir_as_intensity = true;
+  bool loop = true;        ///< .oni recording: start again after the last frame
 };
 
 struct CameraConfig {

@@ -38,6 +38,7 @@ const Table<OpenNI2CameraConfig>& openni2_table() {
       integer("fps", &OpenNI2CameraConfig::fps, 1, 1000),
       number("depth_unit_m", &OpenNI2CameraConfig::depth_unit_m, Range::positive(1.0)),
       flag("ir_as_intensity", &OpenNI2CameraConfig::ir_as_intensity),
+      flag("loop", &OpenNI2CameraConfig::loop),
   };
   return t;
 }

@@ -1,0 +1,451 @@
+// The OpenNI2 driver (see openni2_camera.hpp).
+#include "openni2/openni2_camera.hpp"
+
+#include <OpenNI.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <utility>
+
+namespace palletd {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string oni_error() {
+  const char* text = openni::OpenNI::getExtendedError();
+  return (text != nullptr && *text != '\0') ? std::string(text) : std::string("no detail from OpenNI");
+}
+
+/// openni::OpenNI::initialize()/shutdown(), reference-counted across all cameras of the process.
+class Runtime {
+ public:
+  Runtime() = default;
+  ~Runtime() { release(); }
+  Runtime(const Runtime&) = delete;
+  Runtime& operator=(const Runtime&) = delete;
+
+  Status acquire() {
+    if (held_) return {};
+    std::lock_guard<std::mutex> lock(mutex());
+    if (count() == 0 && openni::OpenNI::initialize() != openni::STATUS_OK) {
+      return Error{"openni2: OpenNI2 runtime did not initialise: " + oni_error()};
+    }
+    ++count();
+    held_ = true;
+    return {};
+  }
+  void release() {
+    if (!held_) return;
+    std::lock_guard<std::mutex> lock(mutex());
+    held_ = false;
+    if (--count() == 0) openni::OpenNI::shutdown();
+  }
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  static int& count() {
+    static int n = 0;
+    return n;
+  }
+  bool held_ = false;
+};
+
+const char* format_name(openni::PixelFormat f) {
+  switch (f) {
+    case openni::PIXEL_FORMAT_DEPTH_1_MM: return "1mm";
+    case openni::PIXEL_FORMAT_DEPTH_100_UM: return "100um";
+    case openni::PIXEL_FORMAT_SHIFT_9_2: return "shift9.2";
+    case openni::PIXEL_FORMAT_SHIFT_9_3: return "shift9.3";
+    case openni::PIXEL_FORMAT_GRAY8: return "gray8";
+    case openni::PIXEL_FORMAT_GRAY16: return "gray16";
+    case openni::PIXEL_FORMAT_RGB888: return "rgb888";
+    default: return "other";
+  }
+}
+
+std::string mode_text(const openni::VideoMode& m) {
+  return std::to_string(m.getResolutionX()) + "x" + std::to_string(m.getResolutionY()) + "@" +
+         std::to_string(m.getFps()) + " " + format_name(m.getPixelFormat());
+}
+
+/// [m per unit] of a depth pixel format; 0 for a format palletd does not take.
+double depth_scale_of(openni::PixelFormat f) {
+  if (f == openni::PIXEL_FORMAT_DEPTH_1_MM) return 0.001;
+  if (f == openni::PIXEL_FORMAT_DEPTH_100_UM) return 0.0001;
+  return 0.0;
+}
+
+/// Copies a 16-bit (or 8-bit) image row by row, honouring the stride.
+template <typename Pixel>
+void copy_rows(const openni::VideoFrameRef& ref, std::vector<std::uint16_t>& out) {
+  const auto w = static_cast<std::size_t>(ref.getWidth());
+  const auto h = static_cast<std::size_t>(ref.getHeight());
+  const auto stride = static_cast<std::size_t>(ref.getStrideInBytes());
+  const auto* base = static_cast<const std::uint8_t*>(ref.getData());
+  out.resize(w * h);
+  for (std::size_t v = 0; v < h; ++v) {
+    const std::uint8_t* row = base + v * stride;
+    for (std::size_t u = 0; u < w; ++u) {
+      Pixel p;
+      std::memcpy(&p, row + u * sizeof(Pixel), sizeof(Pixel));
+      out[v * w + u] = static_cast<std::uint16_t>(p);
+    }
+  }
+}
+
+bool frame_fits(const openni::VideoFrameRef& ref, std::size_t bytes_per_pixel) {
+  if (!ref.isValid() || ref.getWidth() <= 0 || ref.getHeight() <= 0) return false;
+  const auto stride = static_cast<std::size_t>(ref.getStrideInBytes());
+  if (stride < static_cast<std::size_t>(ref.getWidth()) * bytes_per_pixel) return false;
+  return static_cast<std::size_t>(ref.getDataSize()) >= stride * static_cast<std::size_t>(ref.getHeight());
+}
+
+}  // namespace
+
+bool is_oni_path(const std::string& uri) {
+  if (uri.size() < 4) return false;
+  std::string ext = uri.substr(uri.size() - 4);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".oni";
+}
+
+Intrinsics intrinsics_from_fov(int width, int height, double hfov_rad, double vfov_rad) {
+  Intrinsics k;
+  k.width = width;
+  k.height = height;
+  if (!(hfov_rad > 0.0 && hfov_rad < kPi && vfov_rad > 0.0 && vfov_rad < kPi)) return k;
+  k.fx = 0.5 * width / std::tan(0.5 * hfov_rad);
+  k.fy = 0.5 * height / std::tan(0.5 * vfov_rad);
+  k.cx = (width - 1) / 2.0;
+  k.cy = (height - 1) / 2.0;
+  return k;
+}
+
+namespace {
+
+/// The device and its streams; replaced as a whole to rewind an .oni file. Destruction order
+/// (IR stream, depth stream, device) is the reverse of the members below.
+struct Session {
+  openni::Device device;
+  openni::VideoStream depth;
+  openni::VideoStream ir;
+  bool has_ir = false;
+  bool is_file = false;
+  int file_frames = 0;   ///< depth frames in the .oni file
+  int last_index = 0;    ///< frame index of the last depth frame read (0 = none yet)
+};
+
+}  // namespace
+
+struct OpenNI2Camera::Impl {
+  Runtime runtime;  ///< declared first: released last
+  std::unique_ptr<Session> session;
+  std::string uri;  ///< the URI actually opened
+  std::string camera_id;
+  Intrinsics intrinsics;
+  double depth_scale_m = 0.001;
+  double frame_period_us = 33333.0;
+};
+
+OpenNI2Camera::OpenNI2Camera(OpenNI2Options options) : options_(std::move(options)) {
+  CameraIdentity id;
+  id.driver = "openni2";
+  id.model = "openni2";
+  id.address = options_.uri.empty() ? std::string("(first device)") : options_.uri;
+  if (is_oni_path(options_.uri)) id.serial = std::filesystem::path(options_.uri).stem().string();
+  set_identity(std::move(id));
+}
+
+OpenNI2Camera::~OpenNI2Camera() { close(); }
+
+int OpenNI2Camera::recording_frame_count() const {
+  return (impl_ && impl_->session && impl_->session->is_file) ? impl_->session->file_frames : 0;
+}
+
+Status OpenNI2Camera::open_device() {
+  auto s = std::make_unique<Session>();
+  const bool file = is_oni_path(options_.uri);
+  if (file && !std::filesystem::is_regular_file(options_.uri)) {
+    return Error{"openni2: recording " + options_.uri + " does not exist"};
+  }
+  const char* uri = options_.uri.empty() ? openni::ANY_DEVICE : options_.uri.c_str();
+  if (s->device.open(uri) != openni::STATUS_OK) {
+    return Error{"openni2: cannot open " + (options_.uri.empty() ? std::string("the first device") : options_.uri) +
+                 ": " + oni_error()};
+  }
+  s->is_file = s->device.isFile();
+  if (!s->device.hasSensor(openni::SENSOR_DEPTH)) {
+    return Error{"openni2: " + std::string(s->device.getDeviceInfo().getUri()) + " has no depth sensor"};
+  }
+  if (s->depth.create(s->device, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
+    return Error{"openni2: cannot create the depth stream: " + oni_error()};
+  }
+
+  if (s->is_file) {
+    openni::PlaybackControl* playback = s->device.getPlaybackControl();
+    if (playback == nullptr) return Error{"openni2: " + options_.uri + " opened without playback control"};
+    // Real-time playback; never -1 (manual stepping hangs waitForAnyStream in OpenNI2 2.2), and
+    // no built-in repeat: the end of the file is found by frame index and rewound by reopening.
+    if (playback->setSpeed(1.0f) != openni::STATUS_OK || playback->setRepeatEnabled(false) != openni::STATUS_OK) {
+      return Error{"openni2: cannot set up playback of " + options_.uri + ": " + oni_error()};
+    }
+    s->file_frames = playback->getNumberOfFrames(s->depth);
+    if (s->file_frames <= 0) return Error{"openni2: recording " + options_.uri + " holds no depth frames"};
+  } else {
+    const openni::SensorInfo& info = s->depth.getSensorInfo();
+    const openni::Array<openni::VideoMode>& modes = info.getSupportedVideoModes();
+    const openni::PixelFormat want =
+        options_.depth_unit_m < 0.0005 ? openni::PIXEL_FORMAT_DEPTH_100_UM : openni::PIXEL_FORMAT_DEPTH_1_MM;
+    int found = -1;
+    std::string listed;
+    for (int i = 0; i < modes.getSize(); ++i) {
+      const openni::VideoMode& m = modes[i];
+      listed += (listed.empty() ? "" : ", ") + mode_text(m);
+      if (found < 0 && m.getResolutionX() == options_.width && m.getResolutionY() == options_.height &&
+          m.getFps() == options_.fps && m.getPixelFormat() == want) {
+        found = i;
+      }
+    }
+    if (found < 0) {
+      openni::VideoMode w;
+      w.setResolution(options_.width, options_.height);
+      w.setFps(options_.fps);
+      w.setPixelFormat(want);
+      return Error{"openni2: depth mode " + mode_text(w) + " not offered by " + s->device.getDeviceInfo().getUri() +
+                   " (it offers " + listed + "; set camera.openni2.width/height/fps/depth_unit_m)"};
+    }
+    if (s->depth.setVideoMode(modes[found]) != openni::STATUS_OK) {
+      return Error{"openni2: device refuses depth mode " + mode_text(modes[found]) + ": " + oni_error()};
+    }
+    if (s->depth.isPropertySupported(openni::STREAM_PROPERTY_MIRRORING)) (void)s->depth.setMirroringEnabled(false);
+  }
+
+  const openni::VideoMode mode = s->depth.getVideoMode();
+  const double scale = depth_scale_of(mode.getPixelFormat());
+  if (scale <= 0.0) {
+    return Error{"openni2: depth stream delivers " + mode_text(mode) + "; palletd takes 1mm or 100um depth"};
+  }
+
+  // IR as intensity, where the device has it and the mode matches the depth image.
+  if (options_.ir_as_intensity && s->device.hasSensor(openni::SENSOR_IR) &&
+      s->ir.create(s->device, openni::SENSOR_IR) == openni::STATUS_OK) {
+    if (!s->is_file) {
+      const openni::Array<openni::VideoMode>& modes = s->ir.getSensorInfo().getSupportedVideoModes();
+      for (int i = 0; i < modes.getSize(); ++i) {
+        const openni::VideoMode& m = modes[i];
+        if (m.getResolutionX() == mode.getResolutionX() && m.getResolutionY() == mode.getResolutionY() &&
+            (m.getPixelFormat() == openni::PIXEL_FORMAT_GRAY16 || m.getPixelFormat() == openni::PIXEL_FORMAT_GRAY8) &&
+            s->ir.setVideoMode(m) == openni::STATUS_OK) {
+          break;
+        }
+      }
+      if (s->ir.isPropertySupported(openni::STREAM_PROPERTY_MIRRORING)) (void)s->ir.setMirroringEnabled(false);
+    }
+    const openni::VideoMode irm = s->ir.getVideoMode();
+    s->has_ir = irm.getResolutionX() == mode.getResolutionX() && irm.getResolutionY() == mode.getResolutionY() &&
+                (irm.getPixelFormat() == openni::PIXEL_FORMAT_GRAY16 || irm.getPixelFormat() == openni::PIXEL_FORMAT_GRAY8);
+    if (!s->has_ir) s->ir.destroy();
+  }
+
+  // Intrinsics: configured, else from the field of view.
+  Intrinsics k;
+  if (options_.intrinsics_override) {
+    k = *options_.intrinsics_override;
+    if (k.width != mode.getResolutionX() || k.height != mode.getResolutionY()) {
+      return Error{"openni2: configured intrinsics are " + std::to_string(k.width) + "x" + std::to_string(k.height) +
+                   " but the depth stream is " + mode_text(mode)};
+    }
+  } else {
+    k = intrinsics_from_fov(mode.getResolutionX(), mode.getResolutionY(), s->depth.getHorizontalFieldOfView(),
+                            s->depth.getVerticalFieldOfView());
+    if (!k.valid()) {
+      return Error{"openni2: " + std::string(s->device.getDeviceInfo().getUri()) +
+                   " reports no usable field of view; configure camera.intrinsics"};
+    }
+  }
+
+  // Identity.
+  CameraIdentity id;
+  id.driver = "openni2";
+  const openni::DeviceInfo& info = s->device.getDeviceInfo();
+  id.vendor = info.getVendor();
+  id.model = info.getName();
+  id.address = info.getUri();
+  char serial[256] = {};
+  int serial_size = static_cast<int>(sizeof(serial) - 1);
+  if (!s->is_file && s->device.isPropertySupported(openni::DEVICE_PROPERTY_SERIAL_NUMBER) &&
+      s->device.getProperty(openni::DEVICE_PROPERTY_SERIAL_NUMBER, serial, &serial_size) == openni::STATUS_OK) {
+    id.serial = std::string(serial, strnlen(serial, sizeof(serial)));
+  }
+  if (id.serial.empty()) id.serial = s->is_file ? std::filesystem::path(options_.uri).stem().string() : id.address;
+  if (id.model.empty()) id.model = "openni2";
+
+  impl_->uri = info.getUri();
+  impl_->camera_id = id.id();
+  impl_->intrinsics = k;
+  impl_->depth_scale_m = scale;
+  impl_->frame_period_us = 1e6 / std::max(1, mode.getFps());
+  impl_->session = std::move(s);
+  set_identity(std::move(id));
+  return {};
+}
+
+Status OpenNI2Camera::start_streams() {
+  Session& s = *impl_->session;
+  if (s.depth.start() != openni::STATUS_OK) return Error{"openni2: depth stream does not start: " + oni_error()};
+  if (s.has_ir && s.ir.start() != openni::STATUS_OK) {
+    // Many structured-light devices cannot stream depth and IR at once: go on without intensity.
+    s.ir.destroy();
+    s.has_ir = false;
+  }
+  return {};
+}
+
+Status OpenNI2Camera::do_open() {
+  impl_ = std::make_unique<Impl>();
+  if (Status st = impl_->runtime.acquire(); !st) return st;
+  timeouts_in_row_ = 0;
+  return open_device();
+}
+
+Status OpenNI2Camera::do_start() {
+  timeouts_in_row_ = 0;
+  return start_streams();
+}
+
+Status OpenNI2Camera::do_stop() {
+  Session& s = *impl_->session;
+  if (s.has_ir) s.ir.stop();
+  s.depth.stop();
+  return {};
+}
+
+void OpenNI2Camera::do_close() {
+  if (impl_) impl_->session.reset();
+  impl_.reset();  // releases the runtime last
+}
+
+Expected<Frame> OpenNI2Camera::rewind_and_grab(std::chrono::milliseconds timeout) {
+  // PlaybackControl::seek() crashes in OpenNI2 2.2: reopen the file instead.
+  impl_->session.reset();
+  if (Status st = open_device(); !st) {
+    mark_faulted();
+    return Error{st.error()};
+  }
+  if (Status st = start_streams(); !st) {
+    mark_faulted();
+    return Error{st.error()};
+  }
+  ++rewinds_;
+  return do_grab(timeout);
+}
+
+Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  Session* s = impl_->session.get();
+  if (s->is_file && s->last_index >= s->file_frames) {
+    if (!options_.loop) {
+      return Error{"openni2: end of recording " + options_.uri + " after " + std::to_string(s->file_frames) +
+                   " frames (loop is off)"};
+    }
+    return rewind_and_grab(timeout);
+  }
+
+  openni::VideoStream* depth_ptr = &s->depth;
+  int ready = -1;
+  const int wait_ms = static_cast<int>(std::max<std::chrono::milliseconds::rep>(timeout.count(), 0));
+  const openni::Status waited = openni::OpenNI::waitForAnyStream(&depth_ptr, 1, &ready, wait_ms);
+  if (waited != openni::STATUS_OK) {
+    count_timeout();
+    std::string why = "openni2: no depth frame from " + impl_->camera_id + " within " +
+                      std::to_string(timeout.count()) + " ms";
+    if (!s->is_file) {
+      ++timeouts_in_row_;
+      bool present = false;
+      openni::Array<openni::DeviceInfo> devices;
+      openni::OpenNI::enumerateDevices(&devices);
+      for (int i = 0; i < devices.getSize(); ++i) present = present || impl_->uri == devices[i].getUri();
+      if (!present) {
+        mark_faulted();
+        return Error{why + " (device " + impl_->uri + " is gone)"};
+      }
+      if (timeouts_in_row_ >= options_.timeouts_before_fault) {
+        mark_faulted();
+        return Error{why + " (" + std::to_string(timeouts_in_row_) + " timeouts in a row: stream stopped)"};
+      }
+    }
+    return Error{why};
+  }
+  timeouts_in_row_ = 0;
+
+  openni::VideoFrameRef depth;
+  if (s->depth.readFrame(&depth) != openni::STATUS_OK || !frame_fits(depth, 2)) {
+    ++incomplete_;
+    return Error{"openni2: unreadable depth frame from " + impl_->camera_id + ": " + oni_error()};
+  }
+  const int index = depth.getFrameIndex();
+  if (s->last_index > 0 && index > s->last_index + 1) drops_ += static_cast<std::uint64_t>(index - s->last_index - 1);
+  s->last_index = std::max(s->last_index, index);
+  if (depth.getWidth() != impl_->intrinsics.width || depth.getHeight() != impl_->intrinsics.height) {
+    ++incomplete_;
+    return Error{"openni2: depth frame is " + std::to_string(depth.getWidth()) + "x" + std::to_string(depth.getHeight()) +
+                 ", expected " + std::to_string(impl_->intrinsics.width) + "x" + std::to_string(impl_->intrinsics.height) +
+                 " (cropping is not supported)"};
+  }
+  const double scale = depth_scale_of(depth.getVideoMode().getPixelFormat());
+  if (scale <= 0.0) {
+    ++incomplete_;
+    return Error{"openni2: depth frame in format " + mode_text(depth.getVideoMode())};
+  }
+
+  Frame frame;
+  frame.intrinsics = impl_->intrinsics;
+  frame.depth_scale_m = scale;
+  copy_rows<std::uint16_t>(depth, frame.depth);
+
+  // The IR frame of the same instant (timestamps within half a frame period), if any.
+  if (s->has_ir) {
+    openni::VideoStream* ir_ptr = &s->ir;
+    for (int tries = 0; tries < 3; ++tries) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      const int budget = static_cast<int>(std::clamp<std::chrono::milliseconds::rep>(
+          left.count(), 0, static_cast<std::chrono::milliseconds::rep>(2.0 * impl_->frame_period_us / 1000.0) + 1));
+      if (openni::OpenNI::waitForAnyStream(&ir_ptr, 1, &ready, budget) != openni::STATUS_OK) break;
+      openni::VideoFrameRef ir;
+      if (s->ir.readFrame(&ir) != openni::STATUS_OK) break;
+      const double dt = static_cast<double>(ir.getTimestamp()) - static_cast<double>(depth.getTimestamp());
+      if (std::abs(dt) <= 0.5 * impl_->frame_period_us) {
+        const openni::PixelFormat pf = ir.getVideoMode().getPixelFormat();
+        const bool gray16 = pf == openni::PIXEL_FORMAT_GRAY16;
+        if (ir.getWidth() == depth.getWidth() && ir.getHeight() == depth.getHeight() && frame_fits(ir, gray16 ? 2 : 1)) {
+          if (gray16) {
+            copy_rows<std::uint16_t>(ir, frame.intensity);
+          } else {
+            copy_rows<std::uint8_t>(ir, frame.intensity);
+          }
+          frame.intensity_bits = gray16 ? 16 : 8;
+        }
+        break;
+      }
+      if (dt > 0.0) break;  // IR is ahead of depth: no partner for this frame
+    }
+  }
+
+  frame.camera_id = impl_->camera_id;
+  frame.sequence = sequence_++;
+  frame.timestamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                           std::chrono::system_clock::now().time_since_epoch())
+                           .count();
+  return frame;
+}
+
+}  // namespace palletd

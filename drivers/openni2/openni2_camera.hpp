@@ -1,0 +1,76 @@
+// The OpenNI2 driver: structured-light and ToF devices with an OpenNI2 driver, and .oni
+// recordings. Private header: only drivers/ sees it, and it names no OpenNI type (those stay in
+// the .cpp).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "palletd/camera.hpp"
+
+namespace palletd {
+
+struct OpenNI2Options {
+  /// Device URI (as `palletctl cameras` / OpenNI::enumerateDevices lists it), a path to an .oni
+  /// recording, or empty for the first device the runtime finds.
+  std::string uri;
+  int width = 640, height = 480, fps = 30;  ///< depth video mode (live devices only)
+  double depth_unit_m = 0.001;              ///< 0.001 (DEPTH_1_MM) or 0.0001 (DEPTH_100_UM) [m]
+  bool ir_as_intensity = true;              ///< open the IR stream as intensity where there is one
+  bool loop = true;                         ///< .oni: start again after the last frame (reopens the file)
+  /// Live devices: this many timeouts in a row mean the device stopped streaming (faulted).
+  int timeouts_before_fault = 2;
+  std::optional<Intrinsics> intrinsics_override;
+};
+
+/// Whether `uri` names an .oni recording (by its extension, case-insensitive).
+bool is_oni_path(const std::string& uri);
+
+/// Pinhole intrinsics from a field of view: fx = (w/2) / tan(hfov/2), fy likewise, principal
+/// point at the centre of the pixel grid ((w-1)/2, (h-1)/2; OpenNI's own CoordinateConverter
+/// uses w/2, half a pixel off). Invalid (fx = 0) when a field of view is not in (0, pi).
+Intrinsics intrinsics_from_fov(int width, int height, double hfov_rad, double vfov_rad);
+
+/// One OpenNI2 device or .oni file. The OpenNI2 runtime is initialised on open() (reference
+/// counted across cameras) and shut down when the last camera closes; all OpenNI handles are
+/// owned by RAII wrappers in the .cpp. Frames free-run (no trigger mode).
+///
+/// .oni playback runs at the recorded speed; at the end of the file the camera reopens the file
+/// (PlaybackControl::seek() crashes in Debian's OpenNI2 2.2) when `loop` is set, else grab()
+/// reports the end of the recording. Speed -1 (manual stepping) is never used: with
+/// waitForAnyStream it hangs in OpenNI2 2.2.
+class OpenNI2Camera final : public Camera {
+ public:
+  explicit OpenNI2Camera(OpenNI2Options options);
+  ~OpenNI2Camera() override;
+
+  [[nodiscard]] bool trigger_mode() const override { return false; }
+  /// Frames in the open .oni file (0 for a live device or when closed).
+  [[nodiscard]] int recording_frame_count() const;
+  /// Times the .oni file was reopened to start again.
+  [[nodiscard]] std::uint64_t rewinds() const { return rewinds_; }
+
+ protected:
+  Status do_open() override;
+  Status do_start() override;
+  Status do_stop() override;
+  void do_close() override;
+  Expected<Frame> do_grab(std::chrono::milliseconds timeout) override;
+
+ private:
+  struct Impl;
+  Status open_device();
+  Status start_streams();
+  Expected<Frame> rewind_and_grab(std::chrono::milliseconds timeout);
+
+  OpenNI2Options options_;
+  std::unique_ptr<Impl> impl_;
+  int timeouts_in_row_ = 0;
+  std::uint64_t sequence_ = 0;
+  std::uint64_t rewinds_ = 0;
+};
+
+}  // namespace palletd
