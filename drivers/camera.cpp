@@ -108,8 +108,17 @@ Status Camera::software_trigger() {
     return fail(std::string("camera trigger: refused in state ") + to_string(s));
   }
   if (!trigger_mode()) return fail("camera trigger: the camera is free-running (not in trigger mode)");
+  fault_pending_ = false;
   Status status = do_software_trigger();
-  if (!status) return fail("camera trigger: " + status.error());
+  if (!status) {
+    if (fault_pending_) {  // the driver found the camera gone while triggering
+      fault_pending_ = false;
+      faulted_since_open_ = true;
+      ++faults_;
+      state_ = CameraState::faulted;
+    }
+    return fail("camera trigger: " + status.error());
+  }
   return {};
 }
 

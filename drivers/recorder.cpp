@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -42,11 +44,12 @@ bool sync_path(const fs::path& path, bool directory) {
 }
 
 Status write_bytes(const fs::path& path, const char* data, std::size_t size) {
+  errno = 0;
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return Error{"cannot create " + path.string()};
+  if (!out) return Error{"cannot create " + path.string() + (errno ? std::string(": ") + std::strerror(errno) : "")};
   out.write(data, static_cast<std::streamsize>(size));
   out.close();
-  if (!out) return Error{"cannot write " + path.string()};
+  if (!out) return Error{"cannot write " + path.string() + (errno ? std::string(": ") + std::strerror(errno) : "")};
   return {};
 }
 
@@ -136,9 +139,20 @@ Expected<std::string> FrameRecorder::record(const Frame& frame, const std::strin
     const std::string name = e.path().filename().string();
     if (stem_of(name) == stem) files.push_back(e.path());
   }
+  // On any failure below, nothing of this recording stays (neither in .partial nor renamed).
+  const auto discard = [&](const std::string& why) -> Expected<std::string> {
+    for (const auto& f : files) {
+      fs::remove(f, ec);
+      fs::remove(dir / f.filename(), ec);
+    }
+    return Error{"recorder: " + why};
+  };
   if (!written) {
-    for (const auto& f : files) fs::remove(f, ec);
-    return Error{"recorder: " + written.error()};
+    // Say why when the system knows (a full disk, a read-only one).
+    std::string why = written.error();
+    const fs::space_info space = fs::space(partial, ec);
+    if (!ec && space.available < 64 * 1024) why += " (no space left on " + dir.string() + ")";
+    return discard(why);
   }
   // Depth PNG last: the frame becomes visible only when all its files are in place.
   std::stable_partition(files.begin(), files.end(), [](const fs::path& p) {
@@ -147,11 +161,11 @@ Expected<std::string> FrameRecorder::record(const Frame& frame, const std::strin
   std::uint64_t bytes = 0;
   for (const auto& f : files) {
     bytes += fs::file_size(f, ec);
-    if (!sync_path(f, false)) return Error{"recorder: cannot fsync " + f.string()};
+    if (!sync_path(f, false)) return discard("cannot fsync " + f.string() + ": " + std::strerror(errno));
   }
   for (const auto& f : files) {
     fs::rename(f, dir / f.filename(), ec);
-    if (ec) return Error{"recorder: cannot rename " + f.string() + ": " + ec.message()};
+    if (ec) return discard("cannot rename " + f.string() + ": " + ec.message());
   }
   sync_path(dir, true);
 

@@ -17,6 +17,7 @@ packages=(
   python3-serial-asyncio  # pymodbus 3.0 imports it even for TCP clients
   mbpoll  # the Modbus commands in docs/register-map.md
   chromium  # headless browser test of the status page (tests/web)
+  clang-14 libclang-rt-14-dev  # ASan+UBSan build with libFuzzer (scripts/test.sh asan/fuzz stages)
 )
 if [[ "${1:-}" == "--print" ]]; then printf '%s\n' "${packages[@]}"; exit 0; fi
 

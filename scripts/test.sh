@@ -1,23 +1,101 @@
 #!/usr/bin/env bash
 # Builds palletd and runs the whole test suite. Installs what it needs on a Debian 12 machine.
-#   scripts/test.sh                 # RelWithDebInfo build in build/
-#   BUILD_DIR=build-asan CMAKE_ARGS="-DPALLETD_SANITIZE_ADDRESS=ON" scripts/test.sh
+#   scripts/test.sh                 # RelWithDebInfo build in build/ and the whole suite (developers)
+#   CI=true scripts/test.sh         # every CI stage: release asan tsan fuzz (what .ci/run does)
+#   PALLETD_CI_STAGES="asan" scripts/test.sh       # chosen stages only
+#   BUILD_DIR=build-x CMAKE_ARGS="-D..." scripts/test.sh   # the release stage elsewhere / with options
+# Stages (each its own build folder, docs/reliability.md "Sanitizers and fuzzing"):
+#   release  -Werror build (CI) + whole suite                               build/
+#   asan     clang ASan + UBSan (-O1, no benchmarks) + whole suite          build-asan/
+#   tsan     ThreadSanitizer: daemon, service, Modbus and driver tests only build-tsan/
+#   fuzz     libFuzzer targets, PALLETD_FUZZ_SECONDS each (30)              build-asan/
+# Every stage runs even when an earlier one failed; the exit status is non-zero if any failed.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$here"
 
 "$here/scripts/install-deps.sh"
 
-build_dir=${BUILD_DIR:-build}
 jobs=${JOBS:-$(nproc)}
-extra_args=()
-if [[ -n "${CMAKE_ARGS:-}" ]]; then read -r -a extra_args <<<"$CMAKE_ARGS"; fi
-if [[ "${CI:-}" == "true" ]]; then extra_args+=(-DPALLETD_WERROR=ON); fi
-
-cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${extra_args[@]}" >/dev/null
-cmake --build "$build_dir" -j "$jobs"
-# The npm Modbus client the tests drive the handshake with (from the npm registry; cached).
-if [[ ! -d "$build_dir/npm/node_modules/modbus-serial" ]]; then
-  cmake --build "$build_dir" --target palletd_modbus_npm_deps >/dev/null
+stages=${PALLETD_CI_STAGES:-}
+if [[ -z "$stages" ]]; then
+  if [[ "${CI:-}" == "true" ]]; then stages="release asan tsan fuzz"; else stages="release"; fi
 fi
-ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-}
+werror=()
+if [[ "${CI:-}" == "true" ]]; then werror=(-DPALLETD_WERROR=ON); fi
+# Sanitizer builds: -O1 keeps them fast enough to build and run; no benchmarks.
+san_args=(-G Ninja -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -g" -DPALLETD_BUILD_BENCH=OFF)
+
+clang_cxx() { if command -v clang++-14 >/dev/null 2>&1; then echo clang++-14; else echo clang++; fi; }
+
+npm_deps() {  # the npm Modbus client the tests drive the handshake with (npm registry; cached)
+  if [[ ! -d "$1/npm/node_modules/modbus-serial" ]]; then
+    cmake --build "$1" --target palletd_modbus_npm_deps >/dev/null || true
+  fi
+}
+
+stage_release() {
+  local build_dir=${BUILD_DIR:-build}
+  local extra_args=()
+  if [[ -n "${CMAKE_ARGS:-}" ]]; then read -r -a extra_args <<<"$CMAKE_ARGS"; fi
+  cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${werror[@]}" "${extra_args[@]}" >/dev/null || return 1
+  cmake --build "$build_dir" -j "$jobs" || return 1
+  npm_deps "$build_dir"
+  ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-}
+}
+
+# ASan+UBSan with clang and the fuzzer's coverage instrumentation (PALLETD_BUILD_FUZZ): one build
+# runs the whole suite and holds the fuzz targets, so the fuzz stage builds nothing more.
+stage_asan() {
+  local build_dir=${BUILD_DIR_ASAN:-build-asan}
+  cmake -S . -B "$build_dir" "${san_args[@]}" -DCMAKE_CXX_COMPILER="$(clang_cxx)" -DPALLETD_BUILD_FUZZ=ON \
+    -DPALLETD_BUILD_TESTS=ON >/dev/null || return 1
+  cmake --build "$build_dir" -j "$jobs" || return 1
+  npm_deps "$build_dir"
+  (
+    # shellcheck source=tests/sanitizers/env.sh
+    source tests/sanitizers/env.sh
+    ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-}
+  )
+}
+
+# The threaded parts: the daemon (and palletctl, which the driver tests run), the service, the
+# Modbus server and its test server, and the camera drivers.
+tsan_targets=(palletd palletctl palletd_daemon_tests palletd_service_tests palletd_modbus_tests
+              palletd_modbus_test_server palletd_drivers_tests palletd_drivers_aravis_tests)
+tsan_tests='^(palletd_daemon_tests|palletd_service_tests|palletd_modbus_tests|palletd_drivers_tests|palletd_drivers_aravis_tests):|^palletd_modbus_(pymodbus|npm)_handshake$'
+
+stage_tsan() {
+  local build_dir=${BUILD_DIR_TSAN:-build-tsan}
+  cmake -S . -B "$build_dir" "${san_args[@]}" "${werror[@]}" -DPALLETD_SANITIZE_THREAD=ON >/dev/null || return 1
+  cmake --build "$build_dir" -j "$jobs" --target "${tsan_targets[@]}" || return 1
+  npm_deps "$build_dir"
+  (
+    source tests/sanitizers/env.sh
+    ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -R "$tsan_tests" ${CTEST_ARGS:-}
+  )
+}
+
+stage_fuzz() {  # in the asan stage's build folder (built there already when that stage ran)
+  FUZZ_BUILD_DIR=${FUZZ_BUILD_DIR:-${BUILD_DIR_ASAN:-build-asan}} JOBS=$jobs \
+    scripts/fuzz.sh "${PALLETD_FUZZ_SECONDS:-30}"
+}
+
+failed=()
+summary=()
+# (set -e does not apply inside a function called from an `if`: each step says `|| return 1`.)
+for stage in $stages; do
+  case "$stage" in release|asan|tsan|fuzz) ;; *) echo "test.sh: unknown stage '$stage'" >&2; exit 2 ;; esac
+  echo "=== stage $stage ===" >&2
+  start=$SECONDS
+  if "stage_$stage"; then result=ok; else result=FAILED; failed+=("$stage"); fi
+  summary+=("$(printf '%-8s %-7s %5d s' "$stage" "$result" $((SECONDS - start)))")
+done
+if [[ ${#summary[@]} -gt 1 ]]; then
+  echo "=== stages ===" >&2
+  printf '%s\n' "${summary[@]}" >&2
+fi
+if [[ ${#failed[@]} -gt 0 ]]; then
+  echo "test.sh: failed stage(s): ${failed[*]}" >&2
+  exit 1
+fi

@@ -302,7 +302,13 @@ void AravisCamera::do_close() {
 Status AravisCamera::do_software_trigger() {
   GError* error = nullptr;
   arv_camera_software_trigger(impl_->camera.get(), &error);
-  if (error != nullptr) return Error{"aravis: TriggerSoftware failed: " + take(error)};
+  if (error != nullptr) {
+    // A camera that no longer answers its control channel is gone: fault it so the supervisor
+    // reconnects (between triggers nothing else would notice).
+    std::string why = take(error);
+    if (!probe_control()) mark_faulted();
+    return Error{"aravis: TriggerSoftware failed: " + why};
+  }
   return {};
 }
 

@@ -49,6 +49,10 @@ struct ServiceHealth {
   std::uint64_t reconnects = 0;
   std::uint16_t modbus_port = 0;
   std::size_t modbus_connections = 0;
+  std::uint64_t camera_restarts = 0;     ///< trigger-mode camera restarted after timeouts in a row
+  std::uint64_t recordings = 0;          ///< frames recorded since start
+  std::uint64_t recording_failures = 0;  ///< recordings that failed (disk full, read-only, ...)
+  std::string last_recording_error;      ///< "" when the last recording succeeded
 };
 
 class Service {

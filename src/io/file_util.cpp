@@ -93,6 +93,8 @@ Expected<nlohmann::json> parse_json_file(const std::string& path) {
     return nlohmann::json::parse(*text);
   } catch (const nlohmann::json::parse_error& e) {
     return Error{path + ": not valid JSON (byte " + std::to_string(e.byte) + ")"};
+  } catch (const nlohmann::json::exception& e) {  // e.g. out_of_range.406: a number beyond double
+    return Error{path + ": not valid JSON (" + e.what() + ")"};
   }
 }
 

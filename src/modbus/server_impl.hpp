@@ -68,6 +68,7 @@ struct Connection {
   bool read_only = false;
   std::vector<std::uint8_t> buffer;  // bytes of the frame(s) not handled yet
   Clock::time_point last_activity;
+  std::uint64_t requests = 0;  // complete frames received; 0 = never spoke Modbus
   bool closing = false;
 };
 

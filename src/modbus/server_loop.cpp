@@ -145,8 +145,11 @@ void ModbusServer::Impl::accept_all(Clock::time_point now) {
       continue;
     }
     if (connections_.size() >= static_cast<std::size_t>(options_.max_connections)) {
+      // Longest idle first, but a connection that never sent a request goes before one that did:
+      // a burst of silent connections must not push out the PLC between two of its polls.
       auto oldest = std::min_element(connections_.begin(), connections_.end(),
                                      [](const auto& a, const auto& b) {
+                                       if ((a->requests == 0) != (b->requests == 0)) return a->requests == 0;
                                        return a->last_activity < b->last_activity;
                                      });
       log("modbus: connection cap reached; closing the longest idle one from " + (*oldest)->peer);
@@ -206,6 +209,7 @@ void ModbusServer::Impl::serve(Connection& c, Clock::time_point now) {
 void ModbusServer::Impl::handle_frame(Connection& c, const std::uint8_t* frame, std::size_t size,
                                       Clock::time_point now) {
   ++stats_.requests;
+  ++c.requests;
   c.last_activity = now;
   if (u16(frame + 2) != 0) {  // protocol id: not Modbus
     ++stats_.frames_dropped;

@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include <spdlog/spdlog.h>
+
 namespace palletd {
 
 using namespace std::chrono_literals;
@@ -59,7 +61,22 @@ Expected<Frame> Acquisition::acquire(const Request& request) {
       triggered = camera_->software_trigger();
       if (!triggered) return Error{triggered.error()};
     }
-    return camera_->grab(left());
+    const std::uint64_t timeouts_before = camera_->counters().timeouts;
+    Expected<Frame> frame = camera_->grab(left());
+    const bool timed_out = !frame && camera_->counters().timeouts > timeouts_before;
+    if (!timed_out) {
+      failed_in_row_ = 0;  // a frame, or a bad one (counted by the driver): the camera delivers
+    } else if (camera_->camera_ok() && ++failed_in_row_ >= kRestartAfterFailures) {
+      // Streaming by its own account, yet no frame trigger after trigger (acquisition stopped
+      // on the camera side): start it afresh.
+      spdlog::warn("camera {}: no frame for {} triggers in a row ({}); restarting it",
+                   camera_->identity().id(), failed_in_row_, frame.error());
+      failed_in_row_ = 0;
+      restarts_.fetch_add(1);
+      camera_->shutdown();
+      camera_->ensure_streaming();
+    }
+    return frame;
   }
   int completed_after_trigger = 0;
   while (Clock::now() < request.deadline && running_) {

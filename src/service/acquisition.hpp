@@ -43,6 +43,10 @@ class Acquisition {
   [[nodiscard]] Clock::time_point last_alive() const { return Clock::time_point(Clock::duration(alive_.load())); }
   [[nodiscard]] const CameraSupervisor& camera() const { return *camera_; }
   [[nodiscard]] std::uint64_t stale_frames_dropped() const { return stale_dropped_.load(); }
+  /// Times a trigger-mode camera was restarted (stop, close, open, start) because its grabs
+  /// timed out for kRestartAfterFailures triggers in a row while it claimed to be streaming.
+  [[nodiscard]] std::uint64_t camera_restarts() const { return restarts_.load(); }
+  static constexpr int kRestartAfterFailures = 3;
 
  private:
   struct Request {
@@ -61,6 +65,8 @@ class Acquisition {
   std::atomic<bool> running_{false};
   std::atomic<Clock::duration::rep> alive_{0};
   std::atomic<std::uint64_t> stale_dropped_{0};
+  std::atomic<std::uint64_t> restarts_{0};
+  int failed_in_row_ = 0;  ///< acquisition thread only
 
   std::mutex mutex_;
   std::condition_variable cv_;

@@ -77,6 +77,9 @@ class Service::Impl {
     if (!bound) return Error{"modbus: " + bound.error()};
     running_ = true;
     mark(pipeline_alive_);
+    // Ready in the status block from the first request on (before READY=1 to systemd), not only
+    // once the acquisition thread publishes: a PLC reconnecting after a restart sees Ready at once.
+    publish_status(acquisition_->camera());
     acquisition_->start();
     pipeline_ = std::thread([this] { pipeline_main(); });
     spdlog::info("modbus server listening on {} port {}", cfg.modbus.bind_address, server_.port());
@@ -117,8 +120,12 @@ class Service::Impl {
     ServiceHealth h;
     const auto now = Clock::now();
     const auto fresh = [&](Clock::time_point t) { return now - t < 5s; };
+    // A camera call may block for tens of seconds without the thread being hung: Aravis retries
+    // GVCP on a vanished GigE camera (measured 20 s until the fault shows). With 5 s here the
+    // watchdog pings stopped for 13 s and systemd (WatchdogSec=10s) would have killed palletd.
+    const auto camera_fresh = [&](Clock::time_point t) { return now - t < 60s; };
     h.threads_alive = running_ && fresh(load(pipeline_alive_)) && acquisition_ &&
-                      fresh(acquisition_->last_alive()) && fresh(server_.last_alive());
+                      camera_fresh(acquisition_->last_alive()) && fresh(server_.last_alive());
     if (acquisition_) {
       const CameraSupervisor& cam = acquisition_->camera();
       h.camera_ok = cam.camera_ok();
@@ -127,12 +134,19 @@ class Service::Impl {
       const CameraCounters c = cam.counters();
       h.frames = c.frames;
       h.reconnects = c.reconnects;
+      h.camera_restarts = acquisition_->camera_restarts();
     }
     h.triggers = triggers_.load();
     h.results = results_.load();
     h.failures = failures_.load();
     h.modbus_port = server_.port();
     h.modbus_connections = server_.stats().open_connections;
+    h.recordings = recordings_.load();
+    h.recording_failures = recording_failures_.load();
+    {
+      std::lock_guard<std::mutex> lock(recording_error_mutex_);
+      h.last_recording_error = last_recording_error_;
+    }
     return h;
   }
 
@@ -155,7 +169,10 @@ class Service::Impl {
     const CameraCounters c = cam.counters();
     status->ready = running_.load();
     status->camera_ok = cam.camera_ok();
-    if (!status->camera_ok && cam.state() != CameraState::closed) {
+    // Not streaming after a fault (also while closed between reconnect attempts) or after a
+    // failed attempt: disconnected. Closed before the first attempt is just starting up.
+    if (!status->camera_ok && running_.load() &&
+        (cam.state() != CameraState::closed || c.faults > 0 || cam.seconds_to_retry() > 0.0)) {
       status->error = modbus::ErrorCode::kCameraDisconnected;
       status->error_detail = static_cast<std::uint16_t>(std::min<std::uint64_t>(c.faults, 65535));
     }
@@ -281,9 +298,16 @@ class Service::Impl {
     std::vector<std::uint8_t> overlay;
     if (cfg.recording.overlays) overlay = render_overlay_png(*snapshot.frame, snapshot.detection);
     Expected<std::string> stem = recorder_->record(*snapshot.frame, json, overlay);
+    // Detection and the PLC's result do not depend on the recording: a full or read-only disk is
+    // reported (log, counter, sd_notify STATUS=) and the next trigger tries again.
+    std::lock_guard<std::mutex> lock(recording_error_mutex_);
     if (!stem) {
+      recording_failures_.fetch_add(1);
+      last_recording_error_ = stem.error();
       spdlog::error("recording: {}", stem.error());
     } else {
+      recordings_.fetch_add(1);
+      last_recording_error_.clear();
       spdlog::info("recorded {}", *stem);
     }
   }
@@ -300,6 +324,9 @@ class Service::Impl {
   std::atomic<bool> frames_have_base_{false};  ///< the last frame came with camera_to_base
   std::atomic<Clock::duration::rep> pipeline_alive_{0};
   std::atomic<std::uint64_t> triggers_{0}, results_{0}, failures_{0};
+  std::atomic<std::uint64_t> recordings_{0}, recording_failures_{0};
+  mutable std::mutex recording_error_mutex_;
+  std::string last_recording_error_;  ///< guarded by recording_error_mutex_
   mutable std::mutex latest_mutex_;
   std::shared_ptr<const ResultSnapshot> latest_;
 };
@@ -320,6 +347,10 @@ std::string Service::status_line() const {
   s += ": " + std::to_string(h.triggers) + " triggers, " + std::to_string(h.failures) + " failed; camera " +
        h.camera_id + " " + h.camera_state + "; modbus port " + std::to_string(h.modbus_port) + ", " +
        std::to_string(h.modbus_connections) + " client(s)";
+  if (h.recording_failures > 0) {
+    s += "; recording failed " + std::to_string(h.recording_failures) + " time(s)";
+    if (!h.last_recording_error.empty()) s += ", last: " + h.last_recording_error;
+  }
   return s;
 }
 

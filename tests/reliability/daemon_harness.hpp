@@ -1,0 +1,215 @@
+// Test harness for the reliability tests: runs the real palletd executable (as systemd would:
+// NOTIFY_SOCKET, its output in a log file), writes configurations, reads the daemon's RSS and
+// open file descriptors from /proc, and hands out free loopback ports.
+#pragma once
+
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+extern char** environ;
+
+namespace palletd::test {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+inline int free_port() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
+  socklen_t len = sizeof addr;
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  ::close(fd);
+  return ntohs(addr.sin_port);
+}
+
+inline std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+/// A fresh folder, removed at the end of the scope.
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const std::string& tag) {
+    static int counter = 0;
+    path = fs::temp_directory_path() /
+           ("palletd-rel-" + tag + "-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+};
+
+/// config/demo.yaml's formats and recipes with the given camera/modbus/... sections appended.
+inline fs::path write_config(const fs::path& dir, const std::string& sections, const std::string& name = "palletd.yaml") {
+  const std::string demo = read_text(std::string(PALLETD_SOURCE_DIR) + "/config/demo.yaml");
+  const auto from = demo.find("formats:");
+  const auto to = demo.find("modbus:");
+  REQUIRE(from != std::string::npos);
+  REQUIRE(to != std::string::npos);
+  const fs::path path = dir / name;
+  std::ofstream(path) << demo.substr(from, to - from) << sections;
+  return path;
+}
+
+/// A unix datagram socket standing in for systemd's notify socket.
+struct NotifySocket {
+  int fd = -1;
+  std::string path;
+  std::string seen;  ///< every message received so far, one per line
+  NotifySocket() {
+    static int counter = 0;
+    path = (fs::temp_directory_path() /
+            ("palletd-rel-notify-" + std::to_string(::getpid()) + "-" + std::to_string(counter++)))
+               .string();
+    ::unlink(path.c_str());
+    fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", path.c_str());
+    REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
+    timeval tv{0, 50000};
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  }
+  ~NotifySocket() {
+    ::close(fd);
+    ::unlink(path.c_str());
+  }
+  NotifySocket(const NotifySocket&) = delete;
+  NotifySocket& operator=(const NotifySocket&) = delete;
+  /// Collects messages until one received from now on contains `needle`, or the timeout passes.
+  bool wait_for(const std::string& needle, std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      char buf[4096];
+      const ssize_t n = ::recv(fd, buf, sizeof buf - 1, 0);
+      if (n <= 0) continue;
+      const std::string msg(buf, static_cast<std::size_t>(n));
+      seen += msg + "\n";
+      if (msg.find(needle) != std::string::npos) return true;
+    }
+    return false;
+  }
+};
+
+/// The palletd executable of this build tree, run with `args`, output to `log`. `prefix` runs it
+/// through another program (e.g. unshare); that program must exec palletd so the pid stays.
+struct Daemon {
+  pid_t pid = -1;
+  fs::path log;
+  Daemon(const std::vector<std::string>& args, const std::string& notify_path, fs::path log_path,
+         const std::vector<std::string>& prefix = {}, const std::vector<std::string>& extra_env = {})
+      : log(std::move(log_path)) {
+    std::vector<std::string> env_strings;
+    for (char** e = environ; *e; ++e)
+      if (std::string(*e).rfind("NOTIFY_SOCKET=", 0) != 0) env_strings.emplace_back(*e);
+    if (!notify_path.empty()) env_strings.push_back("NOTIFY_SOCKET=" + notify_path);
+    env_strings.insert(env_strings.end(), extra_env.begin(), extra_env.end());
+    std::vector<char*> env;
+    for (auto& s : env_strings) env.push_back(s.data());
+    env.push_back(nullptr);
+    std::vector<std::string> argv_strings = prefix;
+    argv_strings.push_back(binary());
+    argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& s : argv_strings) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    const int rc = prefix.empty() ? ::posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), env.data())
+                                  : ::posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), env.data());
+    posix_spawn_file_actions_destroy(&actions);
+    REQUIRE(rc == 0);
+  }
+  ~Daemon() { kill_now(); }
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  static std::string binary() { return std::string(PALLETD_BINARY_DIR) + "/src/palletd/palletd"; }
+
+  void kill_now() {
+    if (pid <= 0) return;
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, nullptr, 0);
+    pid = -1;
+  }
+  /// True while the process has not exited (reaps it when it has).
+  bool alive() {
+    if (pid <= 0) return false;
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == pid) {
+      pid = -1;
+      return false;
+    }
+    return true;
+  }
+  /// Waits for the exit; the exit status, 128 + signal, or -1 on timeout.
+  int wait_exit(std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      if (::waitpid(pid, &status, WNOHANG) == pid) {
+        pid = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      std::this_thread::sleep_for(5ms);
+    }
+    return -1;
+  }
+  [[nodiscard]] std::string log_text() const { return read_text(log); }
+  [[nodiscard]] std::size_t open_fds() const {
+    std::size_t n = 0;
+    std::error_code ec;
+    for (auto it = fs::directory_iterator("/proc/" + std::to_string(pid) + "/fd", ec); !ec && it != fs::directory_iterator();
+         it.increment(ec))
+      ++n;
+    return n;
+  }
+  [[nodiscard]] long rss_kb() const {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    std::string line;
+    while (std::getline(in, line))
+      if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+    return -1;
+  }
+};
+
+/// Raises this process's soft limit on open files to the hard limit; returns the new soft limit.
+inline rlim_t raise_fd_limit() {
+  rlimit rl{};
+  ::getrlimit(RLIMIT_NOFILE, &rl);
+  rl.rlim_cur = rl.rlim_max;
+  ::setrlimit(RLIMIT_NOFILE, &rl);
+  ::getrlimit(RLIMIT_NOFILE, &rl);
+  return rl.rlim_cur;
+}
+
+}  // namespace palletd::test
