@@ -10,7 +10,8 @@
 // Product search (SearchMode::product, the default). Per component and per layout orientation
 // (taken mod 90 deg from the outline's orthogonal corners), the component is turned so that the
 // layout is axis-aligned. Candidate box-edge lines are the outline's axis-aligned edges closed
-// under +/- every box side (merged within a tolerance); the lines cut the component into grid
+// under every box side towards the side the layer lies on (+sides from an edge with the layer on
+// its + side, -sides from the other; merged within a tolerance); the lines cut the component into grid
 // cells whose exact area inside the outline is clipped once, so Area(B ∩ C) of any box is an
 // O(1) summed-area lookup. Boxes are placed by bottom-left canonical filling: the lowest-leftmost
 // undecided cell is either the bottom-left cell of a new box or left uncovered; every layout is
