@@ -87,28 +87,39 @@ TEST_CASE("noisy seams still resolve layouts the outline cannot") {
   }
 }
 
+struct BundledRun {
+  Detection detection;
+  FrameEval eval;
+};
+
+// Detects one bundled frame with the formats of its truth file's recipe and scores it.
+static BundledRun run_bundled(const std::string& name) {
+  const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/" + name;
+  INFO(stem);
+  const Expected<Truth> truth = read_truth(stem);
+  REQUIRE(truth);
+  const Expected<Frame> frame = read_frame(stem);
+  REQUIRE(frame);
+  std::vector<BoxFormat> formats;
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < truth->recipe_mm.size(); ++i) {
+    const std::string fname = i < truth->recipe.size() ? truth->recipe[i] : std::string();
+    formats.push_back({truth->recipe_mm[i][0] / 1000.0, truth->recipe_mm[i][1] / 1000.0, fname});
+    names.push_back(fname);
+  }
+  BundledRun run{detect(*frame, formats, DetectionParams{}), {}};
+  run.eval = evaluate_frame(run.detection, *truth, names);
+  return run;
+}
+
 static void check_bundled_frames(const std::vector<std::string>& stems) {
-  const std::string dir = PALLETD_TEST_DATA_DIR;
   for (const std::string& name : stems) {
-    const std::string stem = dir + "/" + name;
-    INFO(stem);
-    const Expected<Truth> truth = read_truth(stem);
-    REQUIRE(truth);
-    const Expected<Frame> frame = read_frame(stem);
-    REQUIRE(frame);
-    std::vector<BoxFormat> formats;
-    std::vector<std::string> names;
-    for (std::size_t i = 0; i < truth->recipe_mm.size(); ++i) {
-      const std::string fname = i < truth->recipe.size() ? truth->recipe[i] : std::string();
-      formats.push_back({truth->recipe_mm[i][0] / 1000.0, truth->recipe_mm[i][1] / 1000.0, fname});
-      names.push_back(fname);
-    }
-    const Detection d = detect(*frame, formats, DetectionParams{});
-    const FrameEval e = evaluate_frame(d, *truth, names);
-    INFO(d.message);
-    CHECK(e.status == "ok");
-    CHECK(e.exact);
-    CHECK_FALSE(e.ambiguous);
+    INFO(name);
+    const BundledRun run = run_bundled(name);
+    INFO(run.detection.message);
+    CHECK(run.eval.status == "ok");
+    CHECK(run.eval.exact);
+    CHECK_FALSE(run.eval.ambiguous);
   }
 }
 
@@ -124,22 +135,9 @@ TEST_CASE("detect() resolves the bundled pinwheel's chirality from its seams") {
 TEST_CASE("detect() on the bundled mixed-format frame: exact, or flagged ambiguous") {
   // The outline of this layer fits several layouts equally (a 600x400 box is two 400x300 side
   // by side); a wrong layout must never come out unflagged.
-  const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/08_mixed_600x400_400x300_o3d303";
-  const Expected<Truth> truth = read_truth(stem);
-  REQUIRE(truth);
-  const Expected<Frame> frame = read_frame(stem);
-  REQUIRE(frame);
-  std::vector<BoxFormat> formats;
-  std::vector<std::string> names;
-  for (std::size_t i = 0; i < truth->recipe_mm.size(); ++i) {
-    const std::string fname = i < truth->recipe.size() ? truth->recipe[i] : std::string();
-    formats.push_back({truth->recipe_mm[i][0] / 1000.0, truth->recipe_mm[i][1] / 1000.0, fname});
-    names.push_back(fname);
-  }
-  const Detection d = detect(*frame, formats, DetectionParams{});
-  const FrameEval e = evaluate_frame(d, *truth, names);
-  REQUIRE(e.status == "ok");
-  CHECK((e.exact || e.ambiguous));
+  const BundledRun run = run_bundled("08_mixed_600x400_400x300_o3d303");
+  REQUIRE(run.eval.status == "ok");
+  CHECK((run.eval.exact || run.eval.ambiguous));
 }
 
 // Known failures: brick 05 misses boxes (layout), mixed 08 is flagged ambiguous instead of being
