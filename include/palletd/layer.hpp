@@ -38,6 +38,14 @@ struct LayerParams {
   double min_component_box_fraction = 0.5;  ///< components smaller than this share of the smallest box are dropped
   int min_hole_area_px = 8;  ///< holes whose pixel contour encloses at most this area [px^2] are dropouts
   bool reject_clipped = false;  ///< true: a layer touching the image border ends in no_layer
+  /// Outline share beyond which the layer counts as not fully observed: outline samples whose
+  /// outside neighbour has no depth and no depth is measured further out within
+  /// unobserved_gap_m (beyond the sensor's range, too dark), so the layer may go on there unseen.
+  double max_unobserved_outline_fraction = 0.05;
+  /// A strip without depth narrower than this beside the outline (a projector shadow, dropouts
+  /// at the edge) still shows where the layer ends when a surface is seen beyond it [m].
+  double unobserved_gap_m = 0.05;
+  bool reject_unobserved = false;  ///< true: a layer not fully observed ends in no_layer
 };
 
 /// Crust contour and polygon simplification (stage 5).
@@ -62,6 +70,12 @@ struct LayerDiagnostics {
   double passthrough_tolerance_m = 0.0;  ///< widest |z| band used [m] (the band follows the depth)
   double d_max_m = 0.0;                ///< crust pruning length used [m]
   bool touches_image_border = false;
+  /// Share of the outline (edge samples between a border pixel and its off-layer 4-neighbour)
+  /// whose outside runs along invalid pixels (no depth within LayerParams::unobserved_gap_m).
+  double unobserved_outline_fraction = 0.0;
+  /// unobserved_outline_fraction > LayerParams::max_unobserved_outline_fraction: the outline
+  /// there is where the depth ends, not where the layer ends (LayerResult::reason says so).
+  bool outline_along_invalid = false;
   double t_plane_ms = 0.0, t_layer_ms = 0.0, t_contour_ms = 0.0;
 };
 

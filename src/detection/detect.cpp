@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "poses.hpp"
 
@@ -56,6 +57,15 @@ std::string formats_problem(const std::vector<BoxFormat>& formats) {
 
 Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, const DetectionParams& params,
                  RayTable* rays) {
+  DetectionWorkspace workspace;
+  if (rays != nullptr) workspace.rays = std::move(*rays);
+  Detection out = detect(frame, formats, params, workspace);
+  if (rays != nullptr) *rays = std::move(workspace.rays);
+  return out;
+}
+
+Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, const DetectionParams& params,
+                 DetectionWorkspace& workspace) {
   const auto t_start = Clock::now();
   Detection out;
   auto finish = [&](DetectionStatus status, std::string message) {
@@ -68,13 +78,11 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   if (std::string problem = formats_problem(formats); !problem.empty())
     return finish(DetectionStatus::no_layout, problem);
 
-  // Stage 0: organized cloud (the ray table is reused frame after frame when the caller keeps it).
+  // Stage 0: organized cloud into the caller's workspace (rays and cloud reused frame after frame).
   auto t0 = Clock::now();
-  RayTable local_rays;
-  RayTable* table = rays != nullptr ? rays : &local_rays;
-  if (!table->matches(frame.intrinsics)) *table = RayTable(frame.intrinsics);
-  OrganizedCloud cloud;
-  to_organized_cloud(frame, *table, cloud);
+  if (!workspace.rays.matches(frame.intrinsics)) workspace.rays = RayTable(frame.intrinsics);
+  OrganizedCloud& cloud = workspace.cloud;
+  to_organized_cloud(frame, workspace.rays, cloud);
   out.timing_ms["cloud"] = ms_since(t0);
 
   // Stages 1-5: plane, layer, components, crust contour.

@@ -52,7 +52,7 @@ int run_detect(const DetectArgs& a) {
   for (const auto* dir : {&a.overlay_dir, &a.debug_dir}) {
     if (!dir->empty()) std::filesystem::create_directories(*dir);
   }
-  RayTable rays;
+  DetectionWorkspace workspace;  // rays and cloud reused from frame to frame
   int failed = 0;
   for (const std::string& stem : expand_stems(a.frames)) {
     Expected<Frame> frame = read_frame(stem);
@@ -61,7 +61,7 @@ int run_detect(const DetectArgs& a) {
       detection = bad_frame(frame.error());
     } else {
       if (setup.T_base_camera) frame->T_base_camera = setup.T_base_camera;
-      detection = detect(*frame, setup.formats, setup.params, &rays);
+      detection = detect(*frame, setup.formats, setup.params, workspace);
     }
     std::printf("%s\n", detection_to_json_line(detection, stem).c_str());
     std::fflush(stdout);
@@ -73,7 +73,7 @@ int run_detect(const DetectArgs& a) {
     if (!a.debug_dir.empty()) {
       // Re-run the first half with a trace: detect() itself keeps no intermediate images.
       OrganizedCloud cloud;
-      to_organized_cloud(*frame, rays, cloud);
+      to_organized_cloud(*frame, workspace.rays, cloud);
       double smallest_m2 = 1e9;
       for (const auto& f : setup.formats) smallest_m2 = std::min(smallest_m2, f.long_m * f.short_m);
       LayerTrace trace;

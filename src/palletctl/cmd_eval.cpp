@@ -166,7 +166,7 @@ nlohmann::json to_json(const EvalSummary& s) {
 int run_eval(const EvalArgs& a) {
   const DetectSetup setup = make_detect_setup(a.config, a.recipe, a.boxes);
   std::vector<FrameEval> results;
-  RayTable rays;
+  DetectionWorkspace workspace;  // rays and cloud reused from frame to frame
   if (!a.json && !a.quiet) {
     std::printf("%-48s %-9s %5s %5s %5s %8s %8s %8s %5s %8s\n", "frame", "status", "truth", "det", "match", "pos[mm]",
                 "yaw[deg]", "pw[mm]", "exact", "ms");
@@ -197,7 +197,7 @@ int run_eval(const EvalArgs& a) {
       detection.status = DetectionStatus::bad_frame;
       detection.message = frame.error();
     } else {
-      detection = detect(*frame, formats, setup.params, &rays);
+      detection = detect(*frame, formats, setup.params, workspace);
     }
     FrameEval e = evaluate_frame(detection, *truth, names);
     e.frame = stem;

@@ -25,7 +25,9 @@ LayerResult fail(LayerResult result, DetectionStatus status, std::string reason)
 struct RingGeometry {
   std::vector<Eigen::Vector2d> points;   // border pixels in the layer frame [m]
   std::vector<Eigen::Vector2d> samples;  // midpoints between layer and off-layer 4-neighbours
+  std::vector<Eigen::Vector2d> sample_origins;  // the border pixel of each sample (layer frame) [m]
   double pitch_m = 0.0;                  // largest 4-neighbour spacing on this ring [m]
+  std::size_t unobserved = 0;            // samples with no depth outside within the gap [count]
 };
 
 /// Signed distance of pixel (u, v) to the plane, NaN when outside the image or invalid.
@@ -47,7 +49,8 @@ double signed_distance_at(const OrganizedCloud& cloud, const Plane& plane, int u
 /// up to half a pixel further out, by how far the point lies below the plane).
 RingGeometry ring_geometry(const layer::RingPixels& ring, const cv::Mat& mask, const layer::PixelToLayer& to_layer,
                            const OrganizedCloud& cloud, const Plane& plane, const layer::BandTable& band,
-                           const Eigen::Isometry3d& T_layer_camera, const PlaneParams& validity) {
+                           const Eigen::Isometry3d& T_layer_camera, const PlaneParams& validity, double fx_px,
+                           double gap_m) {
   RingGeometry g;
   g.points.reserve(ring.pixels.size());
   static const int du[4] = {-1, 1, 0, 0};
@@ -67,6 +70,21 @@ RingGeometry ring_geometry(const layer::RingPixels& ring, const cv::Mat& mask, c
       const bool inside = u >= 0 && v >= 0 && u < mask.cols && v < mask.rows;
       if (inside && mask.at<std::uint8_t>(v, u) != 0) continue;
       const Eigen::Vector2d o = to_layer(u, v);
+      // The outline runs along invalid pixels here when no depth is measured beyond it within
+      // unobserved_gap_m (beyond the range, too dark): the layer may go on unseen. A narrower
+      // strip (a projector shadow, dropouts at the edge) with a surface seen beyond still shows
+      // where the layer ends.
+      if (inside && !layer::usable(cloud.at(u, v), validity)) {
+        const double z_m = measured ? static_cast<double>(pc.z()) : plane.d;
+        const int reach = std::max(2, static_cast<int>(std::ceil(gap_m * fx_px / std::max(z_m, 0.1))));
+        bool seen = false;
+        for (int j = 2; j <= reach && !seen; ++j) {
+          const int uj = p.x + j * du[k], vj = p.y + j * dv[k];
+          if (uj < 0 || vj < 0 || uj >= mask.cols || vj >= mask.rows) break;
+          seen = layer::usable(cloud.at(uj, vj), validity);
+        }
+        if (!seen) ++g.unobserved;
+      }
       double e = 0.5;
       const double s_far = signed_distance_at(cloud, plane, p.x + 2 * du[k], p.y + 2 * dv[k], validity);
       if (std::isfinite(s_far) && s_far < min_step) {
@@ -86,6 +104,7 @@ RingGeometry ring_geometry(const layer::RingPixels& ring, const cv::Mat& mask, c
       } else {
         g.samples.push_back(q + e * step);
       }
+      g.sample_origins.push_back(q);
       spacing.push_back((o - q).norm());
     }
   }
@@ -125,7 +144,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   }
 
   // Stage 1: top plane.
-  const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params);
+  const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params, usable);
   result.diagnostics.plane_candidates = top.candidates;
   result.diagnostics.t_plane_ms = ms_since(t_start);
   if (top.status != DetectionStatus::ok) return fail(result, top.status, top.reason);
@@ -192,8 +211,12 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   // Stage 5: crust and polygons.
   const auto t_contour = Clock::now();
   const layer::PixelToLayer to_layer(K, top.plane, result.T_camera_layer);
+  std::size_t outline_samples = 0, unobserved_samples = 0;
   auto build_ring = [&](const layer::RingPixels& pixels, bool hole) -> Ring2d {
-    const RingGeometry g = ring_geometry(pixels, lm.mask, to_layer, cloud, top.plane, band, T_layer_camera, plane_params);
+    const RingGeometry g = ring_geometry(pixels, lm.mask, to_layer, cloud, top.plane, band, T_layer_camera, plane_params,
+                                         K.fx, layer_params.unobserved_gap_m);
+    outline_samples += g.samples.size();
+    unobserved_samples += g.unobserved;
     const double d_max = contour_params.d_max_m > 0.0 ? contour_params.d_max_m : 2.0 * g.pitch_m;
     result.diagnostics.d_max_m = std::max(result.diagnostics.d_max_m, d_max);
     std::vector<std::pair<int, int>> edges;
@@ -206,7 +229,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
         trace->crust_edges.emplace_back(g.points[static_cast<std::size_t>(a)], g.points[static_cast<std::size_t>(b)]);
       trace->crust_rings.push_back(crust);
     }
-    Ring2d ring = layer::simplify_ring(crust, g.samples, g.pitch_m, contour_params);
+    Ring2d ring = layer::simplify_ring(crust, g.samples, g.pitch_m, contour_params, &g.sample_origins);
     if (ring.size() < 3) ring = crust;
     // A ring enclosing less than two pixel footprints is no outline (e.g. a collapsed sliver).
     if (ring.size() < 3 || std::abs(signed_area(ring)) < 2.0 * g.pitch_m * g.pitch_m) return {};
@@ -226,8 +249,19 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   }
   result.diagnostics.t_contour_ms = ms_since(t_contour);
   if (result.polygons.empty()) return fail(result, DetectionStatus::no_layer, "no closed outline could be traced");
+  LayerDiagnostics& diag = result.diagnostics;
+  diag.unobserved_outline_fraction =
+      outline_samples > 0 ? static_cast<double>(unobserved_samples) / static_cast<double>(outline_samples) : 0.0;
+  diag.outline_along_invalid = diag.unobserved_outline_fraction > layer_params.max_unobserved_outline_fraction;
+  std::ostringstream unobserved;
+  if (diag.outline_along_invalid)
+    unobserved << "the layer's outline runs along pixels without depth for " << std::lround(100.0 * diag.unobserved_outline_fraction)
+               << " % of its length; the layer may go on unseen there";
+  if (diag.outline_along_invalid && layer_params.reject_unobserved)
+    return fail(result, DetectionStatus::no_layer, unobserved.str());
   result.status = DetectionStatus::ok;
   if (lm.touches_image_border) result.reason = "the layer touches the image border; its outline is clipped there";
+  if (diag.outline_along_invalid) result.reason += (result.reason.empty() ? "" : "; ") + unobserved.str();
   return result;
 }
 

@@ -61,8 +61,9 @@ inline bool usable(const Eigen::Vector3f& p, const PlaneParams& params) {
 
 /// Finds the top plane: the nearest (along its normal) plane facing the camera whose inliers
 /// cover at least min_plane_area_m2; refits it by least squares on full-resolution inliers.
+/// `usable_points`: the number of usable points when the caller has counted them (0: counted here).
 TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsics,
-                        const PlaneParams& params);
+                        const PlaneParams& params, std::size_t usable_points = 0);
 
 // ---- stage 2: plane frame --------------------------------------------------------------------
 
@@ -166,7 +167,11 @@ std::vector<int> crust_ring(const std::vector<Eigen::Vector2d>& points, const st
 /// per edge to the edge samples (midpoints between layer and off-layer pixels), near-grid edges
 /// snapped to the ring's dominant direction, near-parallel neighbours merged, corners from
 /// intersecting consecutive lines. Orientation as given by the ring.
+/// `sample_origins` (optional, one per sample): the border pixel each sample was taken from; a
+/// sample then qualifies for the edges its pixel lies near (within 1.5 pitches), not only those
+/// it lies near itself (samples beyond a foreshortened pixel step lie further from the ring).
 Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector<Eigen::Vector2d>& samples,
-                     double pitch_m, const ContourParams& params);
+                     double pitch_m, const ContourParams& params,
+                     const std::vector<Eigen::Vector2d>* sample_origins = nullptr);
 
 }  // namespace palletd::layer

@@ -1,6 +1,9 @@
 // Stages 3-4: layer mask in image space, border pixels, components and holes (OpenCV).
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
+#include <utility>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -23,39 +26,52 @@ LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, const Band
   LayerMask out;
   const int w = cloud.width, h = cloud.height;
   cv::Mat raw(h, w, CV_8U, cv::Scalar(0));
-  cv::Mat fillable(h, w, CV_8U, cv::Scalar(255));  // invalid, or a noise outlier near the plane
+  // Fill candidates: pixels off the layer that are invalid or a noise outlier near the plane
+  // (within twice the band; further off is a real surface, e.g. seen through a gap), not on the
+  // image frame (they have too few neighbours to be filled).
+  std::vector<int> candidates;
   const Eigen::Vector3f n = plane.normal.cast<float>();
   const auto d = static_cast<float>(plane.d);
   for (int v = 0; v < h; ++v) {
     auto* row = raw.ptr<std::uint8_t>(v);
-    auto* fil = fillable.ptr<std::uint8_t>(v);
+    const bool inner_row = v > 0 && v + 1 < h;
     for (int u = 0; u < w; ++u) {
       const Eigen::Vector3f& p = cloud.at(u, v);
-      if (!usable(p, validity)) continue;
+      const bool candidate = inner_row && u > 0 && u + 1 < w;
+      if (!usable(p, validity)) {
+        if (candidate) candidates.push_back(v * w + u);
+        continue;
+      }
       const float s = std::abs(n.dot(p) + d);
       const float tol = band.at(p.z());
-      if (s > 2.0F * tol) fil[u] = 0;  // a real surface off the layer (e.g. seen through a gap)
       if (s <= tol) {
         row[u] = 255;
         ++out.raw_layer_pixels;
+      } else if (s <= 2.0F * tol && candidate) {
+        candidates.push_back(v * w + u);
       }
     }
   }
   // Dropouts and noise outliers (invalid, or within twice the band): such a pixel with at least 7
   // of its 8 neighbours on the layer is layer. Two passes close pairs and small clusters; a one-pixel-wide line (6
-  // neighbours), i.e. a real gap, stays.
-  for (int pass = 0; pass < 2; ++pass) {
-    cv::Mat ones, count, off, fill;
-    cv::threshold(raw, ones, 0, 1, cv::THRESH_BINARY);
-    cv::boxFilter(ones, count, CV_8U, cv::Size(3, 3), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
-    cv::compare(raw, 0, off, cv::CMP_EQ);
-    cv::compare(count, 7, fill, cv::CMP_GE);
-    cv::bitwise_and(fill, off, fill);
-    cv::bitwise_and(fill, fillable, fill);
-    const int n_fill = cv::countNonZero(fill);
-    if (n_fill == 0) break;
-    out.filled_dropouts += static_cast<std::size_t>(n_fill);
-    raw.setTo(255, fill);
+  // neighbours), i.e. a real gap, stays. Only the candidates (off the layer, fillable, inside
+  // the image frame: a few percent of the pixels) are visited; each pass decides on the mask
+  // as it was before the pass.
+  std::vector<int> fill;
+  for (int pass = 0; pass < 2 && !candidates.empty(); ++pass) {
+    fill.clear();
+    std::size_t keep = 0;
+    for (const int i : candidates) {
+      const std::uint8_t* c = raw.data + i;
+      const int on = (c[-w - 1] != 0) + (c[-w] != 0) + (c[-w + 1] != 0) + (c[-1] != 0) + (c[1] != 0) +
+                     (c[w - 1] != 0) + (c[w] != 0) + (c[w + 1] != 0);
+      if (on >= 7) fill.push_back(i);
+      else candidates[keep++] = i;
+    }
+    candidates.resize(keep);
+    if (fill.empty()) break;
+    out.filled_dropouts += fill.size();
+    for (const int i : fill) raw.data[i] = 255;
   }
   // Flying pixels and one-pixel spurs at the edge: a 3x3 opening.
   cv::morphologyEx(raw, out.mask, cv::MORPH_OPEN, cv::Mat::ones(3, 3, CV_8U), cv::Point(-1, -1), 1,
@@ -95,9 +111,13 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
     }
   }
 
-  // Ring id per traced contour pixel, chain position per pixel.
-  cv::Mat ring_id(mask.size(), CV_32S, cv::Scalar(-1));
-  cv::Mat chain_pos(mask.size(), CV_32S, cv::Scalar(-1));
+  // Ring id and chain position per traced contour pixel (by pixel index; contours are a small
+  // share of the image, so no image-sized tables).
+  std::unordered_map<int, std::pair<int, int>> traced;
+  std::size_t contour_points = 0;
+  for (const auto& c : contours) contour_points += c.size();
+  traced.reserve(contour_points);
+  const int cols = mask.cols;
   struct RingRef {
     std::size_t component;
     int hole;  // -1 = outer
@@ -107,9 +127,8 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
   auto take_ring = [&](const std::vector<cv::Point>& contour, RingPixels& ring) {
     const int id = static_cast<int>(refs.size()) - 1;
     for (const cv::Point& p : contour) {
-      if (ring_id.at<std::int32_t>(p) >= 0) continue;  // first visit only
-      ring_id.at<std::int32_t>(p) = id;
-      chain_pos.at<std::int32_t>(p) = static_cast<int>(ring.pixels.size());
+      // First visit only.
+      if (!traced.emplace(p.y * cols + p.x, std::make_pair(id, static_cast<int>(ring.pixels.size()))).second) continue;
       ring.pixels.push_back(p);
     }
   };
@@ -142,7 +161,7 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
     }
   }
   // Dropped components leave the mask.
-  for (int v = 0; v < mask.rows; ++v) {
+  for (int v = 0; out.dropped > 0 && v < mask.rows; ++v) {
     const auto* lab = labels.ptr<std::int32_t>(v);
     auto* m = mask.ptr<std::uint8_t>(v);
     for (int u = 0; u < mask.cols; ++u)
@@ -163,17 +182,17 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
   for (int v = 0; v < border.rows; ++v) {
     const auto* b = border.ptr<std::uint8_t>(v);
     for (int u = 0; u < border.cols; ++u) {
-      if (b[u] == 0 || ring_id.at<std::int32_t>(v, u) >= 0) continue;
+      if (b[u] == 0 || traced.count(v * cols + u) != 0) continue;
       for (int k = 0; k < 8; ++k) {
         static const int du[8] = {-1, 1, 0, 0, -1, 1, -1, 1};
         static const int dv[8] = {0, 0, -1, 1, -1, -1, 1, 1};
         const int uu = u + du[k], vv = v + dv[k];
         if (uu < 0 || vv < 0 || uu >= border.cols || vv >= border.rows) continue;
-        const int id = ring_id.at<std::int32_t>(vv, uu);
-        if (id < 0) continue;
-        RingPixels& ring = ring_of(static_cast<std::size_t>(id));
+        const auto it = traced.find(vv * cols + uu);
+        if (it == traced.end()) continue;
+        RingPixels& ring = ring_of(static_cast<std::size_t>(it->second.first));
         ring.pixels.emplace_back(u, v);
-        ring.chain.push_back(chain_pos.at<std::int32_t>(vv, uu));
+        ring.chain.push_back(it->second.second);
         break;
       }
     }

@@ -164,12 +164,14 @@ double pixel_area_m2(double z_m, double plane_distance_m, const Intrinsics& intr
 }
 
 TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsics,
-                        const PlaneParams& params) {
+                        const PlaneParams& params, std::size_t usable_points) {
   TopPlane result;
   // PCL prints RANSAC failures to stderr; detection does not log (its result says what failed).
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  for (const Eigen::Vector3f& p : cloud.points)
-    if (usable(p, params)) ++result.valid_points;
+  result.valid_points = usable_points;
+  if (usable_points == 0)
+    for (const Eigen::Vector3f& p : cloud.points)
+      if (usable(p, params)) ++result.valid_points;
   // Stride: the configured one, or (0) about 2500 points for RANSAC.
   const int stride = params.ransac_stride_px > 0
                          ? params.ransac_stride_px

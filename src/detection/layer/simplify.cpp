@@ -1,6 +1,7 @@
 // Stage 5b: a crust ring simplified to a polygon with reliable corners and fitted edges.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
@@ -108,11 +109,15 @@ void drop_short_edges(std::vector<Eigen::Vector2d>& v, double min_len, double me
 }  // namespace
 
 Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector<Eigen::Vector2d>& samples,
-                     double pitch_m, const ContourParams& params) {
+                     double pitch_m, const ContourParams& params,
+                     const std::vector<Eigen::Vector2d>* sample_origins) {
+  if (sample_origins != nullptr && sample_origins->size() != samples.size()) sample_origins = nullptr;
   if (ring.size() < 4) return ring;
   const double tol = std::max(params.simplify_tolerance_m, 1e-4);
   const double merge_rad = params.merge_angle_deg * kPi / 180.0;
-  std::vector<Eigen::Vector2d> v = douglas_peucker(ring, tol);
+  // The ring runs through border pixel centres: a straight edge is a staircase whose centres
+  // stray up to about a pixel pitch from its chord (the fitted lines below place the edge).
+  std::vector<Eigen::Vector2d> v = douglas_peucker(ring, std::max(tol, 0.75 * pitch_m));
   drop_short_edges(v, std::max(3.0 * pitch_m, 2.0 * tol), merge_rad);
   if (v.size() < 3) return ring;
 
@@ -124,16 +129,26 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
     lines[k].length = (b - a).norm();
     lines[k].dir = lines[k].length > 0.0 ? Eigen::Vector2d((b - a) / lines[k].length) : Eigen::Vector2d::UnitX();
   }
+  // A sample goes to the nearest edge whose middle part it projects onto, among the edges its
+  // border pixel lies near: the pixel is within the ring's staircase (about a pitch from the
+  // chord), while the sample itself may lie up to 1.5 (foreshortened) pixel steps beyond it.
   const double assign_tol = std::max(tol, 1.5 * pitch_m);
-  for (const auto& s : samples) {
-    double best = assign_tol;
+  auto distance_to = [&](std::size_t k, const Eigen::Vector2d& q, double& along) {
+    const Eigen::Vector2d rel = q - v[k];
+    along = rel.dot(lines[k].dir);
+    return std::abs(rel.x() * lines[k].dir.y() - rel.y() * lines[k].dir.x());
+  };
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const Eigen::Vector2d& s = samples[i];
+    const Eigen::Vector2d& o = sample_origins != nullptr ? (*sample_origins)[i] : s;
+    double best = sample_origins != nullptr ? std::numeric_limits<double>::infinity() : assign_tol;
     std::size_t best_k = lines.size();
     for (std::size_t k = 0; k < lines.size(); ++k) {
-      const Eigen::Vector2d rel = s - v[k];
-      const double along = rel.dot(lines[k].dir);
+      double along = 0.0, along_o = 0.0;
+      const double dist = distance_to(k, s, along);
       const double margin = std::min(2.0 * pitch_m + 0.002, 0.25 * lines[k].length);
       if (along < margin || along > lines[k].length - margin) continue;
-      const double dist = std::abs(rel.x() * lines[k].dir.y() - rel.y() * lines[k].dir.x());
+      if (sample_origins != nullptr && distance_to(k, o, along_o) > assign_tol) continue;
       if (dist < best) {
         best = dist;
         best_k = k;
