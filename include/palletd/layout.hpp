@@ -57,9 +57,15 @@ struct LayoutParams {
   SearchMode search = SearchMode::product;
   double a_min_fraction = 0.9;   ///< a box is on the layer when Area(B ∩ C) > a_min_fraction * Area(B)
   double a_max_fraction = 0.1;   ///< and overlaps the hypothesis by less than a_max_fraction * Area(B)
-  /// Search budget per call [ms], shared among the components; past it the best so far is
-  /// returned with budget_exhausted (paper mode: also when paper_max_hypotheses is reached).
-  double time_budget_ms = 50.0;
+  /// Product search budget per call: node expansions (best-first queue pops), shared among the
+  /// components and layout orientations in a fixed way. This is the primary budget and it is
+  /// deterministic: the same frame gives the same layout whatever the machine load. Past it the
+  /// best layout so far is returned with budget_exhausted. A 40-box layer needs a few thousand.
+  std::size_t search_expansions = 20000;
+  /// Wall-clock safety cap per call [ms], shared among the components; past it the best so far is
+  /// returned with budget_exhausted (paper mode: the budget, with paper_max_hypotheses). In the
+  /// product search it only ends searches the expansion budget would let run too long.
+  double time_budget_ms = 200.0;
   /// Two materially different layouts whose scores differ by less than this share of the
   /// smallest box area are tied (-> ambiguous).
   double ambiguity_margin = 0.02;
@@ -132,6 +138,7 @@ struct LayoutResult {
   double runner_up_gap = -1.0;       ///< score gap to the best different layout [m^2]; -1 = none
   std::vector<Box2d> runner_up;      ///< that layout (diagnostics), empty if none
   std::size_t hypotheses_visited = 0;
+  std::size_t search_expansions = 0;  ///< product search: node expansions used (the budget's unit)
   double search_ms = 0.0;
 };
 

@@ -144,7 +144,11 @@ std::vector<PolygonWithHoles> perturb(const std::vector<PolygonWithHoles>& polyg
       // A mid-edge vertex so that the edge itself is not straight.
       out.push_back((b + c) / 2);
     }
-    for (auto& p : out) p += Eigen::Vector2d(u(rng), u(rng));
+    for (auto& p : out) {  // y before x, one draw per statement (the order gcc evaluated them in)
+      const double dy = u(rng);
+      const double dx = u(rng);
+      p += Eigen::Vector2d(dx, dy);
+    }
     return out;
   };
   std::vector<PolygonWithHoles> out;

@@ -154,7 +154,11 @@ TEST_CASE("densely sampled jagged outlines keep their corners") {
       for (std::size_t i = 0; i < r.size(); ++i) {
         const Eigen::Vector2d a = r[i], b = r[(i + 1) % r.size()];
         const int n = static_cast<int>((b - a).norm() / 0.005);
-        for (int k = 0; k < n; ++k) out.push_back(a + (b - a) * (static_cast<double>(k) / n) + Eigen::Vector2d(u(rng), u(rng)));
+        for (int k = 0; k < n; ++k) {  // y before x, one draw per statement (gcc's order)
+          const double dy = u(rng);
+          const double dx = u(rng);
+          out.push_back(a + (b - a) * (static_cast<double>(k) / n) + Eigen::Vector2d(dx, dy));
+        }
       }
       return out;
     };

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <sstream>
 
 #include "layout_internal.hpp"
@@ -82,23 +83,16 @@ double seam_agreement(const std::vector<FrameBox>& boxes, const SeamTable& table
   double agree = 0.0;
   for (const auto& fb : boxes) {
     const Rect& r = fb.rect;
-    for (int e = 0; e < 4; ++e) {
-      const bool vertical = e < 2;
-      const double pos = e == 0 ? r.x0 : e == 1 ? r.x1 : e == 2 ? r.y0 : r.y1;
-      const double out = (e == 0 || e == 2) ? -1.0 : 1.0;
-      const double lo = (vertical ? r.y0 : r.x0) + m, hi = (vertical ? r.y1 : r.x1) - m;
-      if (hi <= lo) continue;
-      const double a0 = std::min(pos + out * m, pos + out * 3 * m), a1 = std::max(pos + out * m, pos + out * 3 * m);
+    for_each_box_side(r, m, [&](const BoxSide& side) {
       double shared = 0.0;
-      const double med = median_along(lo, hi, [&](double s0, double s1) {
-        const Rect beyond = vertical ? Rect{a0, s0, a1, s1} : Rect{s0, a0, s1, a1};
+      const double med = median_along(side.lo, side.hi, [&](double s0, double s1) {
+        const Rect beyond = side.beyond(s0, s1);
         if (layer_area(beyond) < 0.5 * beyond.area()) return -1.0;
         shared += s1 - s0;
-        const Rect line = vertical ? Rect{pos - cell / 2, s0, pos + cell / 2, s1} : Rect{s0, pos - cell / 2, s1, pos + cell / 2};
-        return std::min(1.0, 2.0 * table.support(line));
+        return std::min(1.0, 2.0 * table.support(side.line(s0, s1, cell)));
       });
       agree += shared * med;
-    }
+    });
     double crossing = 0.0;
     const double lx = r.x1 - r.x0 - 2 * m, ly = r.y1 - r.y0 - 2 * m;
     if (lx <= 0 || ly <= 0) continue;
@@ -152,6 +146,8 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
   const auto budget = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double, std::milli>(std::max(0.0, params.time_budget_ms)));
   const auto end = t0 + budget;
+  // Expansions left for the product searches, shared in a fixed way (deterministic).
+  std::size_t expansions_left = params.search_expansions;
 
   double total_area = 0.0, covered = 0.0;
   std::vector<std::string> reasons;
@@ -172,6 +168,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     const auto now = std::chrono::steady_clock::now();
     const auto left = end > now ? end - now : std::chrono::steady_clock::duration::zero();
     const Deadline deadline{now + left / static_cast<long>(components.size() - ci)};
+    std::size_t comp_expansions = expansions_left / (components.size() - ci);
 
     if (params.search == SearchMode::paper) {
       const PaperSolution ps = search_paper(comp, comp_edges, formats, params, deadline);
@@ -211,6 +208,14 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       const auto left2 = deadline.end > now2 ? deadline.end - now2 : std::chrono::steady_clock::duration::zero();
       // The best supported orientation gets most of the component's share.
       const Deadline d2{now2 + (oi + 1 == n_orient ? left2 : left2 * 3 / 4)};
+      std::size_t orient_expansions = oi + 1 == n_orient ? comp_expansions : comp_expansions * 3 / 4;
+      auto spend = [&](std::size_t used) {
+        result.search_expansions += used;
+        used = std::min(used, orient_expansions);
+        orient_expansions -= used;
+        comp_expansions -= std::min(used, comp_expansions);
+        expansions_left -= std::min(used, expansions_left);
+      };
       LayoutFrame frame;
       frame.theta_rad = thetas[oi];
       frame.pivot = centroid_of(comp.outer);
@@ -219,7 +224,8 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       // The outline alone decides coverage: seams never enter the search score (a noisy seam
       // raster must not veto a layout the outline supports). They rank the near-equal
       // hypotheses below.
-      const ComponentSolution cs = search_product(fp, fe, formats, params, nullptr, d2);
+      const ComponentSolution cs = search_product(fp, fe, formats, params, nullptr, SearchBudget{orient_expansions, d2});
+      spend(cs.expansions);
       const std::size_t slot = frame_polys.size();
       frame_polys.push_back(fp);
       frames.push_back(frame);
@@ -241,9 +247,12 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
         if (!table.empty()) {
           const auto now3 = std::chrono::steady_clock::now();
           const auto left3 = d2.end > now3 ? d2.end - now3 : std::chrono::steady_clock::duration::zero();
-          const ComponentSolution ss = search_product(fp, fe, formats, params, &table, Deadline{now3 + left3},
-                                                      cs.score - params.ambiguity_margin * min_box_area);
+          const ComponentSolution ss =
+              search_product(fp, fe, formats, params, &table, SearchBudget{orient_expansions, Deadline{now3 + left3}},
+                             cs.score - params.ambiguity_margin * min_box_area);
+          spend(ss.expansions);
           result.hypotheses_visited += ss.visited;
+          result.budget_exhausted = result.budget_exhausted || ss.budget_exhausted;
           if (ss.found) cands.push_back({frame, ss.boxes, ss.outline_score, slot});
           for (const auto& alt : ss.alternatives) {
             double covered_m2 = 0.0;  // its outline score
@@ -323,7 +332,30 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return agree[a] > agree[b]; });
       ambiguous = agree[order[0]] - agree[order[1]] < kSeamSeparation * min_short;
     }
-    const Candidate& best = cands[order.front()];
+    Candidate best = cands[order.front()];
+    // Outline-equal footprint moves (a box or two turned into other boxes of the recipe on the
+    // same rectangle) are too many to list as alternatives in mixed-format layers: the seams
+    // decide each one; one they cannot decide leaves the layout ambiguous.
+    {
+      const double tol = params.line_merge_tol_m > 0 ? params.line_merge_tol_m : std::clamp(0.06 * min_short, 0.006, 0.02);
+      const std::vector<FootprintMove> moves = footprint_moves(best.boxes, formats, tol);
+      if (!moves.empty()) {
+        std::unique_ptr<SeamLikelihood> lik;
+        if (have_seams) {
+          lik = std::make_unique<SeamLikelihood>(*seams, best.frame, frame_polys[best.orientation], tol,
+                                                 params.seam_margin_m);
+          const std::vector<FrameBox> overlay = moves_overlay(best.boxes, moves);
+          std::vector<const std::vector<FrameBox>*> calibration{&best.boxes, &overlay};
+          for (std::size_t n : near) {
+            if (cands[n].orientation == best.orientation) calibration.push_back(&cands[n].boxes);
+          }
+          lik->calibrate(calibration);
+        }
+        const RetileResult rr =
+            retile_by_seams(&best.boxes, formats, lik.get(), tol, SeamLikelihood::decisive_nats(min_short));
+        ambiguous = ambiguous || rr.tied;
+      }
+    }
     result.score += best.score;
     result.ambiguous = result.ambiguous || ambiguous;
     if (order.size() > 1) {

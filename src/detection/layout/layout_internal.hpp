@@ -94,31 +94,60 @@ struct EdgeEvidence {
   double supported_len = 0.0;  ///< of which on a seam (weighted by seam value) [m]
 };
 
+/// One side of a box rectangle, as the walks along box sides see it.
+struct BoxSide {
+  bool vertical = true;  ///< a side at constant x (left or right)
+  double pos = 0.0;      ///< line of the side [m]
+  double out = 1.0;      ///< -1 or +1: the direction across the side away from the box
+  double lo = 0.0, hi = 0.0;  ///< extent along the side, shrunk by the margin at both ends [m]
+  double beyond0 = 0.0, beyond1 = 0.0;  ///< strip across the side beyond the box: margin to 3 margins out [m]
+  /// The rectangle spanning [s0, s1] along the side and [a0, a1] across it.
+  [[nodiscard]] Rect span(double s0, double s1, double a0, double a1) const {
+    return vertical ? Rect{a0, s0, a1, s1} : Rect{s0, a0, s1, a1};
+  }
+  /// The strip beyond the side along [s0, s1] (where a neighbour would lie).
+  [[nodiscard]] Rect beyond(double s0, double s1) const { return span(s0, s1, beyond0, beyond1); }
+  /// A line `width_m` wide centred on the side along [s0, s1].
+  [[nodiscard]] Rect line(double s0, double s1, double width_m) const {
+    return span(s0, s1, pos - width_m / 2, pos + width_m / 2);
+  }
+};
+
+/// Calls fn(BoxSide) for the four sides of `r` (left, right, bottom, top), skipping sides not
+/// longer than twice the margin.
+template <typename Fn>
+void for_each_box_side(const Rect& r, double margin_m, Fn&& fn) {
+  for (int e = 0; e < 4; ++e) {
+    BoxSide side;
+    side.vertical = e < 2;
+    side.pos = e == 0 ? r.x0 : e == 1 ? r.x1 : e == 2 ? r.y0 : r.y1;
+    side.out = (e == 0 || e == 2) ? -1.0 : 1.0;
+    side.lo = (side.vertical ? r.y0 : r.x0) + margin_m;
+    side.hi = (side.vertical ? r.y1 : r.x1) - margin_m;
+    if (side.hi <= side.lo) continue;
+    const double a = side.pos + side.out * margin_m, b = side.pos + side.out * 3 * margin_m;
+    side.beyond0 = std::min(a, b);
+    side.beyond1 = std::max(a, b);
+    fn(static_cast<const BoxSide&>(side));
+  }
+}
+
 /// Walks the four edges of `r` in segments; `layer_area(rect)` gives the layer area of a rect.
 template <typename Table, typename AreaFn>
 EdgeEvidence edge_evidence(const Rect& r, const Table& table, AreaFn&& layer_area, double margin_m) {
   EdgeEvidence ev;
   const double seg = 0.04;
-  for (int e = 0; e < 4; ++e) {
-    const bool vertical = e < 2;
-    const double pos = e == 0 ? r.x0 : e == 1 ? r.x1 : e == 2 ? r.y0 : r.y1;
-    const double out = (e == 0 || e == 2) ? -1.0 : 1.0;
-    const double lo = (vertical ? r.y0 : r.x0) + margin_m, hi = (vertical ? r.y1 : r.x1) - margin_m;
-    if (hi <= lo) continue;
-    const int n = std::max(1, static_cast<int>((hi - lo) / seg + 0.5));
-    const double step = (hi - lo) / n;
-    const double a0 = pos + out * margin_m, a1 = pos + out * 3 * margin_m;
-    const double c = table.cell();
+  for_each_box_side(r, margin_m, [&](const BoxSide& side) {
+    const int n = std::max(1, static_cast<int>((side.hi - side.lo) / seg + 0.5));
+    const double step = (side.hi - side.lo) / n;
     for (int k = 0; k < n; ++k) {
-      const double s0 = lo + k * step, s1 = s0 + step;
-      const Rect beyond = vertical ? Rect{std::min(a0, a1), s0, std::max(a0, a1), s1}
-                                   : Rect{s0, std::min(a0, a1), s1, std::max(a0, a1)};
+      const double s0 = side.lo + k * step, s1 = s0 + step;
+      const Rect beyond = side.beyond(s0, s1);
       if (layer_area(beyond) < 0.5 * beyond.area()) continue;
-      const Rect line = vertical ? Rect{pos - c / 2, s0, pos + c / 2, s1} : Rect{s0, pos - c / 2, s1, pos + c / 2};
       ev.neighbour_len += step;
-      ev.supported_len += step * std::min(1.0, 2.0 * table.support(line));  // half a seam counts
+      ev.supported_len += step * std::min(1.0, 2.0 * table.support(side.line(s0, s1, table.cell())));  // half a seam counts
     }
-  }
+  });
   return ev;
 }
 
@@ -141,6 +170,14 @@ struct Deadline {
   [[nodiscard]] bool passed() const { return std::chrono::steady_clock::now() >= end; }
 };
 
+/// Budget of one product search: node expansions (the primary, deterministic budget: the same
+/// input gives the same result whatever the machine load) and a wall-clock deadline (a safety
+/// cap only). Either running out ends the search with budget_exhausted.
+struct SearchBudget {
+  std::size_t expansions = 0;
+  Deadline deadline;
+};
+
 /// Near-equal, materially different layouts kept per search (more: the seams choose by a
 /// seam-penalised search constrained to the outline's near-equal layouts).
 constexpr std::size_t kMaxAlternatives = 6;
@@ -160,6 +197,7 @@ struct ComponentSolution {
   std::vector<double> alternative_scores;
   bool budget_exhausted = false;
   std::size_t visited = 0;
+  std::size_t expansions = 0;  ///< node expansions used (queue pops)
   std::string reason;       ///< when !found
 };
 
@@ -173,7 +211,7 @@ PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m)
 /// only choose among layouts the outline supports).
 ComponentSolution search_product(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
                                  const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                                 const SeamTable* seams, const Deadline& deadline,
+                                 const SeamTable* seams, const SearchBudget& budget,
                                  double min_outline_score = -1e300);
 
 /// Algorithms 1-3 in the layer frame (no layout frame; the paper's boxes carry their own angle).

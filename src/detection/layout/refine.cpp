@@ -5,7 +5,9 @@
 // (refine_joint.cpp). Sides with a neighbour but no visible seam make the two boxes touch.
 // Centres and sizes of all boxes are then one least-squares fit with the nominal format as a
 // prior on each size (sizes stay within the tolerance); the per-box yaw follows the fitted
-// side slopes.
+// side slopes. Where an edge lies within the pixel footprint depends on whether the side faces
+// the camera (its wall hides the floor behind it) or not: each side's samples are corrected by
+// half a footprint accordingly (outline_footprint_correction, seam_footprint_correction).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -19,6 +21,10 @@ namespace palletd {
 using namespace layout_detail;
 
 namespace {
+
+/// The smallest depth step beyond a box side that hides the floor behind its wall: the
+/// smallest box height a pallet layer has [m].
+constexpr double kMinDrop_m = 0.1;
 
 /// Layer points binned in a coarse grid so that each box only visits its neighbourhood.
 class PointGrid {
@@ -181,6 +187,10 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
   // How far a side may lie from where the search put it: the search packs nominal boxes
   // without gaps, so interior sides are off by the gaps and size deviations accumulated.
   const double window = std::max(0.03, 2.5 * m);
+  // The camera in the layer frame: which box sides face it decides where an edge lies within
+  // the pixel footprint (refine_joint.hpp). Unknown (no camera above the plane): no correction.
+  const Eigen::Vector3d camera_layer = layer.T_camera_layer.inverse().translation();
+  const bool view_known = camera_layer.z() > 0.1;
 
   struct ComponentFrame {
     bool built = false;
@@ -262,16 +272,33 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
           const Rect beyond = axis == 0 ? Rect{std::min(a0, a1), s.lo, std::max(a0, a1), s.hi}
                                         : Rect{s.lo, std::min(a0, a1), s.hi, std::max(a0, a1)};
           const bool shared = clipped_area(cf.polygon, beyond.x0, beyond.y0, beyond.x1, beyond.y1) > 0.5 * beyond.area();
+          // Tan of the viewing angle at the side's middle, outward (> 0: the side faces the camera).
+          double view_slope = 0.0;
+          if (view_known) {
+            Eigen::Vector2d mid, out_dir = Eigen::Vector2d::Zero();
+            mid[axis] = s.pos;
+            mid[1 - axis] = s.t_ref;
+            out_dir[axis] = sign;
+            const Eigen::Vector2d mid_l = cf.frame.to_layer(mid);
+            const Eigen::Vector2d du = cf.frame.to_layer(out_dir) - cf.frame.to_layer(Eigen::Vector2d::Zero());
+            view_slope = du.dot(camera_layer.head<2>() - mid_l) / camera_layer.z();
+          }
+          const double shift_outline = view_known ? sign * outline_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
+          const double shift_seam = view_known ? sign * seam_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
+          auto shifted = [](std::vector<Eigen::Vector2d> v, double d) {
+            for (auto& q : v) q.y() += d;
+            return v;
+          };
           std::vector<Eigen::Vector2d> samples;
           double floor_m = 0.3 * lp;
           std::size_t slices = static_cast<std::size_t>((s.hi - s.lo) / (1.5 * lp));
           if (!shared || !use_seams) {
-            samples = outline_samples(s, local[k], lp, window, win_in);
+            samples = shifted(outline_samples(s, local[k], lp, window, win_in), shift_outline);
           } else {
             // The box's edge of the seam band; where the raster shows none, where the box's own
             // points end (a hole, a gap the seam raster leaves out).
-            samples = seam_samples(s, *seams, cf.frame, window, win_in);
-            const std::vector<Eigen::Vector2d> own = outline_samples(s, local[k], lp, window, win_in);
+            samples = shifted(seam_samples(s, *seams, cf.frame, window, win_in), shift_seam);
+            const std::vector<Eigen::Vector2d> own = shifted(outline_samples(s, local[k], lp, window, win_in), shift_outline);
             const double reach_t = 1.5 * lp;
             // Slices where the raster shows no band but the box's points end (a hole).
             std::vector<Eigen::Vector2d> extra;

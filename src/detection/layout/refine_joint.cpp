@@ -79,6 +79,27 @@ EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref
 
 namespace {
 
+/// -1 (the floor beyond the side is seen) .. +1 (the side's wall hides a whole footprint of it):
+/// the blend of the two pixel-footprint cases. Seen straight down or from the far side, the
+/// floor shows; from the near side the wall hides view_slope * drop_m of it.
+double facing_blend(double view_slope, double pitch_m, double drop_m) {
+  const double ramp = drop_m > 0 ? pitch_m / drop_m : 0.0;
+  if (!(ramp > 0)) return view_slope > 0 ? 1.0 : -1.0;
+  return std::clamp(2.0 * view_slope / ramp - 1.0, -1.0, 1.0);
+}
+
+}  // namespace
+
+double outline_footprint_correction(double view_slope, double pitch_m, double drop_m) {
+  return -0.5 * pitch_m * facing_blend(view_slope, pitch_m, drop_m);
+}
+
+double seam_footprint_correction(double view_slope, double pitch_m, double drop_m) {
+  return 0.5 * pitch_m * (1.0 - std::max(0.0, facing_blend(view_slope, pitch_m, drop_m)));
+}
+
+namespace {
+
 /// One axis of the joint fit: unknowns c_0..c_{n-1}, h_0..h_{n-1} (centre and half size).
 void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
                 const std::vector<Contact>& contacts, const JointParams& params, int axis) {

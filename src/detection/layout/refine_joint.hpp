@@ -52,6 +52,26 @@ struct Contact {
   double sigma_m = 0.001;
 };
 
+/// Where a box side lies relative to what the pixels show, from the pixel footprint and the view.
+/// `view_slope`: tan of the angle between the viewing ray at the side and the layer normal,
+/// measured outward (> 0: the camera lies beyond the side, its wall faces the camera; < 0: the
+/// side faces away). `pitch_m`: pixel footprint on the layer across the side. `drop_m`: the
+/// smallest depth step beyond a side that hides what lies behind it (a box height).
+/// Outline side (measured as the outermost layer point plus half a footprint): a side facing the
+/// camera hides the floor behind its wall, so pixels straddling the edge keep top depth and stay
+/// on the layer (edge = outermost point, -pitch/2); a side facing away (or seen straight on)
+/// mixes the straddling pixel with the deep floor, it leaves the layer, and the edge lies a
+/// whole footprint beyond the last layer point's centre (+pitch/2). The two blend linearly over
+/// 0 < view_slope < pitch / drop (until the wall hides one footprint of the floor).
+/// Returns the correction to add to the outward side position [m].
+double outline_footprint_correction(double view_slope, double pitch_m, double drop_m);
+
+/// Seam side (measured as the box's edge of the seam band, where the band reaches 0.5): a pixel
+/// turns seam-like as soon as its footprint reaches into the gap, so the band starts half a
+/// footprint inside the box, unless the side faces the camera (its wall is seen in the gap with
+/// top-like depth): +pitch/2 blended to 0 as for outline sides.
+double seam_footprint_correction(double view_slope, double pitch_m, double drop_m);
+
 struct JointParams {
   double size_sigma_m = 0.005;      ///< prior spread of a real side length around nominal [m]
   double size_tolerance_m = 0.010;  ///< a side length stays within nominal +- this [m]

@@ -103,33 +103,27 @@ std::map<SeamLikelihood::PieceKey, double> SeamLikelihood::pieces(const std::vec
   std::map<PieceKey, double> out;
   const double m = margin_;
   for (const auto& fb : boxes) {
-    const Rect& r = fb.rect;
-    for (int e = 0; e < 4; ++e) {
-      const bool vertical = e < 2;
-      const double pos = e == 0 ? r.x0 : e == 1 ? r.x1 : e == 2 ? r.y0 : r.y1;
-      const double out_dir = (e == 0 || e == 2) ? -1.0 : 1.0;
-      const double lo = (vertical ? r.y0 : r.x0) + m, hi = (vertical ? r.y1 : r.x1) - m;
-      const double a0 = std::min(pos + out_dir * m, pos + out_dir * 3 * m);
-      const double a1 = std::max(pos + out_dir * m, pos + out_dir * 3 * m);
-      const auto k0 = static_cast<std::int64_t>(std::ceil(lo / kPiece_m - 0.5));
-      const auto k1 = static_cast<std::int64_t>(std::floor(hi / kPiece_m - 0.5));
-      const PieceKey probe{vertical, static_cast<std::int64_t>(std::llround(pos / kKey_m)), 0};
+    for_each_box_side(fb.rect, m, [&](const BoxSide& side) {
+      const auto k0 = static_cast<std::int64_t>(std::ceil(side.lo / kPiece_m - 0.5));
+      const auto k1 = static_cast<std::int64_t>(std::floor(side.hi / kPiece_m - 0.5));
+      const PieceKey probe{side.vertical, static_cast<std::int64_t>(std::llround(side.pos / kKey_m)), 0};
       for (std::int64_t k = k0; k <= k1; ++k) {
         PieceKey key = probe;
         key.index = k;
         if (out.count(key) != 0) continue;
         const double s0 = static_cast<double>(k) * kPiece_m, s1 = s0 + kPiece_m;
-        const Rect beyond = vertical ? Rect{a0, s0, a1, s1} : Rect{s0, a0, s1, a1};
+        const Rect beyond = side.beyond(s0, s1);
         if (clipped_area(*polygon_, beyond.x0, beyond.y0, beyond.x1, beyond.y1) < 0.5 * beyond.area()) continue;
-        out.emplace(key, pos);
+        out.emplace(key, side.pos);
       }
-    }
+    });
   }
   return out;
 }
 
 bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& candidates) {
   usable_ = false;
+  axis_seams_[0] = axis_seams_[1] = 0;
   if (empty() || candidates.empty()) return false;
   std::vector<std::map<PieceKey, double>> all;
   for (const auto* c : candidates) all.push_back(pieces(*c));
@@ -138,7 +132,10 @@ bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& 
   for (const auto& [key, pos] : all.front()) {
     bool common = true;
     for (std::size_t i = 1; i < all.size() && common; ++i) common = all[i].count(key) != 0;
-    if (common) seam_c.push_back(contrast(key, pos));
+    if (common) {
+      seam_c.push_back(contrast(key, pos));
+      ++axis_seams_[key.vertical ? 1 : 0];
+    }
   }
   // No-seam reference: lines at a quarter and three quarters across each box of every
   // candidate, away from every predicted seam (a half-box line is a seam in brick patterns).
@@ -196,6 +193,11 @@ double SeamLikelihood::llr(double c) const {
   return std::clamp(v, -kPieceCap, kPieceCap);
 }
 
+double SeamLikelihood::llr(double c, bool vertical) const {
+  const double v = llr(c);
+  return v < 0.0 && axis_seams_[vertical ? 1 : 0] < 2 ? 0.0 : v;
+}
+
 double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const {
   if (!usable_) return 0.0;
   const auto pa = pieces(a), pb = pieces(b);
@@ -219,7 +221,7 @@ double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector
       ++j;
     }
     std::vector<double> v;
-    for (std::size_t t = i; t < j; ++t) v.push_back(llr(contrast(diff[t].key, diff[t].pos)));
+    for (std::size_t t = i; t < j; ++t) v.push_back(llr(contrast(diff[t].key, diff[t].pos), diff[t].key.vertical));
     d += diff[i].sign * static_cast<double>(j - i) * median_of(std::move(v));
     i = j;
   }

@@ -10,7 +10,9 @@
 // each maximal run of pieces where two layouts disagree counts with the median of its pieces
 // times its length, so short interior edges (tape, labels) and scattered dropouts do not decide.
 // When the frame's seams are not distinguishable from its box tops, the evidence is zero and the
-// tie stays a tie (ambiguous).
+// tie stays a tie (ambiguous). Along an axis where the frame shows no reference seam at all, a
+// missing seam counts for nothing (gaps can be pressed shut along one direction), a clear one
+// still counts.
 #pragma once
 
 #include <cstdint>
@@ -64,6 +66,10 @@ class SeamLikelihood {
  private:
   [[nodiscard]] double contrast(const PieceKey& k, double pos) const;
   [[nodiscard]] double llr(double c) const;
+  /// llr() for a piece on a line of the given axis: where the frame shows no seam reference
+  /// along that axis, a missing seam is no evidence (seams pressed shut along one direction,
+  /// as on a pallet filled edge to edge, look like box tops); a clear seam still is.
+  [[nodiscard]] double llr(double c, bool vertical) const;
   [[nodiscard]] double strip_mean(double x0, double y0, double x1, double y1) const;
 
   const PolygonWithHoles* polygon_;
@@ -72,7 +78,34 @@ class SeamLikelihood {
   int w_ = 0, h_ = 0;
   std::vector<double> sat_;
   double mu0_ = 0, sigma0_ = 0, mu1_ = 0, sigma1_ = 0;
+  std::size_t axis_seams_[2] = {0, 0};  ///< seam reference pieces per axis ([1]: vertical lines)
   bool usable_ = false;
 };
+
+/// An outline-equal change of a layout: the boxes `remove` (indices) give way to `add`, which
+/// tile the same rectangle (a box split into two boxes of the recipe, e.g. a 600 x 400 into two
+/// 400 x 300 side by side; two boxes merged into one; two boxes split the other way).
+struct FootprintMove {
+  std::vector<std::size_t> remove;
+  std::vector<FrameBox> add;
+};
+/// Every footprint move of a layout (single boxes and pairs sharing a whole side); sizes match
+/// within tol_m.
+std::vector<FootprintMove> footprint_moves(const std::vector<FrameBox>& boxes, const std::vector<BoxFormat>& formats,
+                                           double tol_m);
+/// The layout with every move applied at once (moves may overlap: for calibration only).
+std::vector<FrameBox> moves_overlay(const std::vector<FrameBox>& boxes, const std::vector<FootprintMove>& moves);
+
+struct RetileResult {
+  bool tied = false;        ///< a move the seams could not decide remains (-> ambiguous)
+  std::size_t applied = 0;  ///< moves the seams decided for
+};
+/// Footprint moves decided by the seams: the search keeps only a few near-equal layouts, but a
+/// layer with several formats has 2^n outline-equal ones (each 600 x 400 box or two 400 x 300).
+/// The moves are independent (each changes the pieces inside its footprint only), so they are
+/// decided one at a time: the move with the strongest evidence above decisive_nats is applied,
+/// until none is left. Without usable seams, any move is a tie. `lik` may be null.
+RetileResult retile_by_seams(std::vector<FrameBox>* boxes, const std::vector<BoxFormat>& formats,
+                             const SeamLikelihood* lik, double tol_m, double decisive_nats);
 
 }  // namespace palletd::layout_detail

@@ -90,8 +90,8 @@ int main(int argc, char** argv) {
   paper.time_budget_ms = paper_budget_ms;
 
   std::printf("## Layout search, 200 x 150 boxes on 1200 x 1000 (full at 40, partial below)\n\n");
-  std::printf("| boxes | outline | seams | product median [ms] | CPU median [ms] | max [ms] | nodes | result | paper [ms] | paper hypotheses | paper cap hit | paper/product | paper result |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| boxes | outline | seams | product median [ms] | CPU median [ms] | max [ms] | nodes | expansions | result | paper [ms] | paper hypotheses | paper cap hit | paper/product | paper result |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int n : {4, 8, 12, 16, 24, 32, 40}) {
     KnownLayout l = grid_200x150(n);
     l.theta_rad = 0.15;
@@ -112,22 +112,22 @@ int main(int argc, char** argv) {
                       pp.median_ms / std::max(pr.median_ms, 1e-3), verdict(l, pp.last));
         paper_cells = buf;
       }
-      std::printf("| %d | %s | %s | %.2f | %.2f | %.2f | %zu | %s %s|\n", n, noisy ? "noisy +/-2 mm, rounded" : "ideal",
+      std::printf("| %d | %s | %s | %.2f | %.2f | %.2f | %zu | %zu | %s %s|\n", n, noisy ? "noisy +/-2 mm, rounded" : "ideal",
                   with_seams ? "yes" : "no", pr.median_ms, pr.cpu_median_ms, pr.max_ms, pr.last.hypotheses_visited,
-                  verdict(l, pr.last), paper_cells.c_str());
+                  pr.last.search_expansions, verdict(l, pr.last), paper_cells.c_str());
     }
   }
 
   std::printf("\n## Other patterns (ideal outline, synthetic seams / none)\n\n");
-  std::printf("| layout | boxes | seams | median [ms] | CPU [ms] | nodes | result |\n|---|---|---|---|---|---|---|\n");
+  std::printf("| layout | boxes | seams | median [ms] | CPU [ms] | nodes | expansions | result |\n|---|---|---|---|---|---|---|---|\n");
   for (KnownLayout l : {block(3, 3, 0.4, 0.3), brick(), pinwheel(0.4, 0.3, false), mixed_formats(), l_shaped(), clusters()}) {
     l.theta_rad = 0.3;
     const auto outline = union_outline(l);
     const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
     for (bool ws : {true, false}) {
       const Run r = time_it(outline, l.formats, product, ws ? &seams : nullptr, reps);
-      std::printf("| %s | %zu | %s | %.2f | %.2f | %zu | %s |\n", l.name.c_str(), l.boxes.size(), ws ? "yes" : "no",
-                  r.median_ms, r.cpu_median_ms, r.last.hypotheses_visited, verdict(l, r.last));
+      std::printf("| %s | %zu | %s | %.2f | %.2f | %zu | %zu | %s |\n", l.name.c_str(), l.boxes.size(), ws ? "yes" : "no",
+                  r.median_ms, r.cpu_median_ms, r.last.hypotheses_visited, r.last.search_expansions, verdict(l, r.last));
     }
   }
 

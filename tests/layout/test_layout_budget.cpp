@@ -1,0 +1,149 @@
+// The deterministic search budget, footprint moves decided by the seams (mixed formats), and
+// the box-side walk shared by the seam scorers.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+
+#include "layout_fixtures.hpp"
+#include "layout_internal.hpp"
+#include "palletd/layout.hpp"
+#include "seam_likelihood.hpp"
+
+using namespace palletd;
+using namespace palletd::layout_test;
+using namespace palletd::layout_detail;
+
+namespace {
+
+bool same_boxes(const std::vector<Box2d>& a, const std::vector<Box2d>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].center != b[i].center || a[i].yaw_rad != b[i].yaw_rad || a[i].format != b[i].format) return false;
+  }
+  return true;
+}
+
+/// 1200 x 600 of 400 x 300 (A) and 300 x 200 (B, turned, two side by side = one A): every A
+/// could be two Bs and every pair of Bs an A by the outline alone.
+KnownLayout mixed_rows() {
+  KnownLayout l{"mixed rows", {{0.4, 0.3, "A"}, {0.3, 0.2, "B"}}, {}, 0.0, Eigen::Vector2d(0.1, -0.2), 0.0};
+  l.theta_rad = 0.3;
+  l.boxes = {{0.0, 0.0, 0, true}, {0.4, 0.0, 1, false}, {0.6, 0.0, 1, false}, {0.8, 0.0, 0, true},
+             {0.0, 0.3, 1, false}, {0.2, 0.3, 1, false}, {0.4, 0.3, 0, true}, {0.8, 0.3, 1, false},
+             {1.0, 0.3, 1, false}};
+  return l;
+}
+
+}  // namespace
+
+TEST_CASE("the expansion budget gives the same result twice, whatever the clock") {
+  const KnownLayout l = grid_200x150(40);
+  const auto outline = perturb(union_outline(l), 0.002, 0.0, 3U);
+  LayoutParams p;
+  p.time_budget_ms = 60000.0;  // the clock never decides here
+  p.search_expansions = 30;    // far too small for 40 boxes
+  const LayoutResult a = find_layout(outline, l.formats, p, nullptr);
+  const LayoutResult b = find_layout(outline, l.formats, p, nullptr);
+  CHECK(a.budget_exhausted);
+  CHECK(b.budget_exhausted);
+  CHECK(a.hypotheses_visited == b.hypotheses_visited);
+  CHECK(a.status == b.status);
+  CHECK(same_boxes(a.boxes, b.boxes));
+
+  LayoutParams full;
+  full.time_budget_ms = 60000.0;
+  const LayoutResult c = find_layout(outline, l.formats, full, nullptr);
+  CHECK_FALSE(c.budget_exhausted);  // the default finishes a 40-box layer
+  CHECK(c.hypotheses_visited > a.hypotheses_visited);
+  CHECK((c.ambiguous || match_error(truth_boxes(l), c.boxes) >= 0.0));  // no seams: grid ties are flagged
+}
+
+TEST_CASE("box sides: position, direction, extent and the strip beyond") {
+  std::vector<BoxSide> sides;
+  for_each_box_side(Rect{1.0, 2.0, 1.4, 2.3}, 0.01, [&](const BoxSide& s) { sides.push_back(s); });
+  REQUIRE(sides.size() == 4);
+  CHECK(sides[0].vertical);
+  CHECK(sides[0].pos == Approx(1.0));
+  CHECK(sides[0].out == -1.0);
+  CHECK(sides[0].lo == Approx(2.01));
+  CHECK(sides[0].hi == Approx(2.29));
+  CHECK(sides[0].beyond0 == Approx(0.97));
+  CHECK(sides[0].beyond1 == Approx(0.99));
+  CHECK(sides[3].vertical == false);
+  CHECK(sides[3].pos == Approx(2.3));
+  const Rect beyond = sides[3].beyond(1.1, 1.2);
+  CHECK(beyond.x0 == Approx(1.1));
+  CHECK(beyond.y0 == Approx(2.31));
+  CHECK(beyond.y1 == Approx(2.33));
+  // A side no longer than twice the margin is skipped.
+  std::size_t n = 0;
+  for_each_box_side(Rect{0, 0, 0.015, 0.5}, 0.01, [&](const BoxSide&) { ++n; });
+  CHECK(n == 2);
+}
+
+TEST_CASE("footprint moves: a box split into two of the recipe, two merged into one") {
+  const std::vector<BoxFormat> formats{{0.4, 0.3, "A"}, {0.3, 0.2, "B"}};
+  const std::vector<FrameBox> one{{{0.0, 0.0, 0.4, 0.3}, 0, true}};
+  const auto split = footprint_moves(one, formats, 0.01);
+  REQUIRE(split.size() == 1);
+  REQUIRE(split[0].add.size() == 2);
+  CHECK(split[0].add[0].format == 1);
+  CHECK(split[0].add[0].rect.x1 == Approx(0.2));
+  const auto merge = footprint_moves(split[0].add, formats, 0.01);
+  bool merged = false;
+  for (const auto& m : merge) merged = merged || (m.remove.size() == 2 && m.add.size() == 1 && m.add[0].format == 0);
+  CHECK(merged);
+  // One format that tiles nothing else: no move.
+  CHECK(footprint_moves(one, {{0.4, 0.3, "A"}}, 0.01).empty());
+}
+
+TEST_CASE("mixed formats: the seams decide between a box and two of the other format") {
+  const KnownLayout l = mixed_rows();
+  const auto outline = union_outline(l);
+  LayoutParams p;
+  p.time_budget_ms = 60000.0;
+  const LayoutResult plain = find_layout(outline, l.formats, p, nullptr);
+  REQUIRE(plain.status == DetectionStatus::ok);
+  CHECK(plain.ambiguous);  // the outline cannot tell
+
+  const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+  const LayoutResult a = find_layout(outline, l.formats, p, &seams);
+  REQUIRE(a.status == DetectionStatus::ok);
+  CHECK_FALSE(a.ambiguous);
+  CHECK(match_error(truth_boxes(l), a.boxes) >= 0.0);
+  CHECK(match_error(truth_boxes(l), a.boxes) < 0.005);
+
+  // The same outline with the other choice in every footprint is found just as well.
+  KnownLayout swapped = l;
+  swapped.boxes = {{0.0, 0.0, 1, false}, {0.2, 0.0, 1, false}, {0.4, 0.0, 0, true}, {0.8, 0.0, 1, false},
+                   {1.0, 0.0, 1, false}, {0.0, 0.3, 0, true}, {0.4, 0.3, 1, false}, {0.6, 0.3, 1, false},
+                   {0.8, 0.3, 0, true}};
+  const SeamEvidence seams2 = synthetic_seams(swapped, 0.003, 0.002);
+  const LayoutResult b = find_layout(outline, l.formats, p, &seams2);
+  REQUIRE(b.status == DetectionStatus::ok);
+  CHECK_FALSE(b.ambiguous);
+  CHECK(match_error(truth_boxes(swapped), b.boxes) >= 0.0);
+}
+
+TEST_CASE("mixed formats: a seam missing along an axis without reference seams is a tie") {
+  // 600 x 800: two 600 x 400 (A) stacked, or four 400 x 300 (B, turned) in two by two.
+  const std::vector<BoxFormat> formats{{0.6, 0.4, "A"}, {0.4, 0.3, "B"}};
+  KnownLayout four{"four B", formats, {{0.0, 0.0, 1, false}, {0.3, 0.0, 1, false}, {0.0, 0.4, 1, false},
+                                        {0.3, 0.4, 1, false}}, 0.2, Eigen::Vector2d::Zero(), 0.0};
+  KnownLayout two{"two A", formats, {{0.0, 0.0, 0, true}, {0.0, 0.4, 0, true}}, 0.2, Eigen::Vector2d::Zero(), 0.0};
+  const auto outline = union_outline(four);
+  LayoutParams p;
+  p.time_budget_ms = 60000.0;
+  // Both seams visible: the four boxes.
+  const SeamEvidence both = synthetic_seams(four, 0.003, 0.002);
+  const LayoutResult a = find_layout(outline, formats, p, &both);
+  REQUIRE(a.status == DetectionStatus::ok);
+  CHECK_FALSE(a.ambiguous);
+  CHECK(match_error(truth_boxes(four), a.boxes) >= 0.0);
+  // Only the seam across the middle: the vertical seams may be pressed shut (no vertical seam
+  // anywhere to compare with), so the layer is flagged, whichever layout is returned.
+  const SeamEvidence middle = synthetic_seams(two, 0.003, 0.002);
+  const LayoutResult b = find_layout(outline, formats, p, &middle);
+  REQUIRE(b.status == DetectionStatus::ok);
+  CHECK(b.ambiguous);
+}
