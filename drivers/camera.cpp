@@ -109,7 +109,11 @@ Status Camera::software_trigger() {
   }
   if (!trigger_mode()) return fail("camera trigger: the camera is free-running (not in trigger mode)");
   fault_pending_ = false;
-  Status status = do_software_trigger();
+  Status status;
+  {
+    ControlCall call(*this);
+    status = do_software_trigger();
+  }
   if (!status) {
     if (fault_pending_) {  // the driver found the camera gone while triggering
       fault_pending_ = false;
@@ -123,6 +127,14 @@ Status Camera::software_trigger() {
 }
 
 Status Camera::do_software_trigger() { return Error{"this camera has no software trigger"}; }
+
+void Camera::check_alive() {
+  if (state() != CameraState::streaming || do_alive()) return;
+  faulted_since_open_ = true;
+  ++faults_;
+  state_ = CameraState::faulted;
+  (void)fail("camera " + identity().id() + " lost (the driver lost its control channel)");
+}
 
 CameraCounters Camera::counters() const {
   CameraCounters c;
@@ -153,6 +165,31 @@ void Camera::set_identity(CameraIdentity identity) {
 
 void Camera::count_timeout() { ++timeouts_; }
 
+namespace {
+std::int64_t steady_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+}  // namespace
+
+Camera::ControlCall::ControlCall(Camera& camera) : camera_(camera) {
+  std::int64_t idle = 0;
+  // steady_now_ns() is never 0 on a running system; 0 marks "no call".
+  outermost_ = camera_.control_call_since_ns_.compare_exchange_strong(idle, steady_now_ns());
+}
+
+Camera::ControlCall::~ControlCall() {
+  if (outermost_) camera_.control_call_since_ns_.store(0);
+}
+
+std::chrono::milliseconds Camera::control_call_age() const {
+  const std::int64_t since = control_call_since_ns_.load();
+  if (since == 0) return std::chrono::milliseconds(0);
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+      std::chrono::nanoseconds(std::max<std::int64_t>(0, steady_now_ns() - since)));
+}
+
 // ---------------------------------------------------------------------------------------------
 
 Backoff::Backoff(double min_s, double max_s)
@@ -165,9 +202,9 @@ double Backoff::next_delay_s() {
 }
 
 CameraSupervisor::CameraSupervisor(std::unique_ptr<Camera> camera, double reconnect_min_s,
-                                   double reconnect_max_s)
+                                   double reconnect_max_s, std::chrono::milliseconds control_timeout)
     : camera_(std::move(camera)), backoff_(reconnect_min_s, reconnect_max_s),
-      next_attempt_(std::chrono::steady_clock::now()) {}
+      control_timeout_(control_timeout), next_attempt_(std::chrono::steady_clock::now()) {}
 
 CameraSupervisor::~CameraSupervisor() { shutdown(); }
 
@@ -223,6 +260,7 @@ Expected<Frame> CameraSupervisor::grab(std::chrono::milliseconds timeout) {
 }
 
 bool CameraSupervisor::ensure_streaming() {
+  if (camera_->state() == CameraState::streaming) camera_->check_alive();
   if (camera_->state() == CameraState::streaming) return true;
   return bring_up().ok();
 }

@@ -6,6 +6,7 @@
 #
 #   scripts/soak.sh [--build DIR] [--palletd EXE] [--duration S] [--period-ms MS] [--sample-s S] [--out DIR]
 #                   [--rss-tolerance-kb KB] [--fd-tolerance N] [--p99-factor F] [--p99-slack-ms MS]
+#                   [--time-scale N]
 #   scripts/soak.sh --evaluate DIR [tolerances]    judge the samples of an earlier run again
 #
 # Pass criteria (after a warm-up of max(20 s, 10 % of the run)):
@@ -19,6 +20,9 @@
 #   - the recording ring stays under its max_bytes and no partial recording is left in DIR.
 # The samples (samples.csv), the load output (load.log) and the daemon log go to --out
 # (default: a fresh folder under /tmp). CI runs it for 120 s (ctest label "soak").
+# --time-scale N (default 1; ctest passes PALLETD_TEST_TIME_SCALE, 8 in sanitizer builds) multiplies
+# the time bounds: the daemon's detection timeout (2000 ms), the handshake timeout (10 s), the wait
+# for the daemon to listen and the p99 slack. The duration, period and tolerances stay as given.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=$here/build
@@ -33,6 +37,7 @@ fd_tol=4
 p99_factor=2.0
 p99_slack_ms=25
 ring_bytes=$((64 * 1024 * 1024))
+time_scale=1
 while [[ $# -gt 0 ]]; do
   case $1 in
     --build) build=$2; shift 2 ;;
@@ -46,10 +51,13 @@ while [[ $# -gt 0 ]]; do
     --fd-tolerance) fd_tol=$2; shift 2 ;;
     --p99-factor) p99_factor=$2; shift 2 ;;
     --p99-slack-ms) p99_slack_ms=$2; shift 2 ;;
-    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    --time-scale) time_scale=$2; shift 2 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     *) echo "soak.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
+[[ $time_scale =~ ^[1-9][0-9]*$ ]] || { echo "soak.sh: --time-scale takes a whole number >= 1" >&2; exit 2; }
+p99_slack_ms=$(awk -v s="$p99_slack_ms" -v k="$time_scale" 'BEGIN{print s*k}')
 if [[ -n $evaluate ]]; then
   # Judge an earlier run's folder again (e.g. with other tolerances); nothing is started.
   out=$evaluate
@@ -87,6 +95,7 @@ modbus:
   port: $port
 pipeline:
   default_recipe: 6
+  detection_timeout_ms: $((2000 * time_scale))
 logging:
   level: warn
 recording:
@@ -107,7 +116,7 @@ cleanup() {
   if [[ -n ${load_pid:-} ]] && kill -0 "$load_pid" 2>/dev/null; then kill "$load_pid"; fi
 }
 trap cleanup EXIT
-for _ in $(seq 100); do
+for _ in $(seq $((100 * time_scale))); do
   (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null && break
   kill -0 "$pid" 2>/dev/null || { echo "soak.sh: palletd exited" >&2; cat "$log" >&2; exit 1; }
   sleep 0.1
@@ -115,7 +124,7 @@ done
 
 window_s=$(( duration >= 600 ? 30 : 5 ))
 "$load" --port "$port" --recipe 6 --period-ms "$period_ms" --duration-s "$duration" --window-s "$window_s" \
-  >"$out/load.log" 2>"$out/load.err" &
+  --timeout-ms $((10000 * time_scale)) >"$out/load.log" 2>"$out/load.err" &
 load_pid=$!
 
 samples=$out/samples.csv

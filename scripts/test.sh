@@ -46,16 +46,13 @@ stage_release() {
 
 # ASan+UBSan with clang and the fuzzer's coverage instrumentation (PALLETD_BUILD_FUZZ): one build
 # runs the whole suite and holds the fuzz targets, so the fuzz stage builds nothing more.
-# Tests that fail in the ASan+UBSan stage today, each with what was seen (issue 9 stays open until
-# this list is empty; docs/reliability.md "Known ASan-stage failures"). Set PALLETD_ASAN_EXCLUDE=
-# (empty) to run them anyway.
-#  - sim seam dip and refine seam-width block: a different (clang-built) random scene fails the
-#    check, not a sanitizer report: seeded scenes must not depend on argument evaluation order.
-#  - OpenNI2 tests: LeakSanitizer reports allocations made inside libOpenNI2 at shutdown.
-#  - the browser test, three reliability tests and the 120 s soak: trigger-to-result and restart
-#    time bounds, which an -O1 ASan build on 2 shared cores does not meet (detection took 2-8 s:
-#    detection timeout, error code 2).
-asan_exclude_default='^palletd_sim_tests:seams between touching boxes|^palletd_refine_tests:refine: a block with seams|^palletd_drivers_openni2_tests:|^palletd_web_browser$|^palletd_reliability_tests:(kill -9|abuse|32 pollers)|^palletd_soak_120s$'
+# Tests left out of the ASan+UBSan stage by name (ctest -E regex): none. The list held 14 known
+# failures, each followed up (docs/reliability.md "Known ASan-stage failures", with what is still
+# open): seeded scenes that depended on argument evaluation order, LeakSanitizer reports from
+# OpenNI2's OniFile driver (kept loaded in the ASan test runtime; tests/sanitizers/lsan.supp), and
+# time bounds that now scale with PALLETD_TEST_TIME_SCALE. PALLETD_ASAN_EXCLUDE='regex' leaves
+# tests out for one run.
+asan_exclude_default=''
 asan_exclude=${PALLETD_ASAN_EXCLUDE-$asan_exclude_default}
 
 stage_asan() {
@@ -68,7 +65,7 @@ stage_asan() {
     # shellcheck source=tests/sanitizers/env.sh
     source tests/sanitizers/env.sh
     if [[ -n "$asan_exclude" ]]; then
-      echo "test.sh: asan stage leaves out the known failures: $asan_exclude" >&2
+      echo "test.sh: asan stage leaves out (PALLETD_ASAN_EXCLUDE): $asan_exclude" >&2
       ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -E "$asan_exclude" ${CTEST_ARGS:-}
     else
       ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-}
@@ -77,10 +74,12 @@ stage_asan() {
 }
 
 # The threaded parts: the daemon (and palletctl, which the driver tests run), the service, the
-# Modbus server and its test server, and the camera drivers.
+# Modbus server and its test server, and the camera drivers (Aravis, OpenNI2 through the real
+# runtime and its test device, cloud replay).
 tsan_targets=(palletd palletctl palletd_daemon_tests palletd_service_tests palletd_modbus_tests
-              palletd_modbus_test_server palletd_drivers_tests palletd_drivers_aravis_tests)
-tsan_tests='^(palletd_daemon_tests|palletd_service_tests|palletd_modbus_tests|palletd_drivers_tests|palletd_drivers_aravis_tests):|^palletd_modbus_(pymodbus|npm)_handshake$'
+              palletd_modbus_test_server palletd_drivers_tests palletd_drivers_aravis_tests
+              palletd_drivers_openni2_tests palletd_drivers_cloud_tests)
+tsan_tests='^(palletd_daemon_tests|palletd_service_tests|palletd_modbus_tests|palletd_drivers_tests|palletd_drivers_aravis_tests|palletd_drivers_openni2_tests|palletd_drivers_cloud_tests):|^palletd_modbus_(pymodbus|npm)_handshake$'
 
 stage_tsan() {
   local build_dir=${BUILD_DIR_TSAN:-build-tsan}

@@ -39,6 +39,7 @@ struct AravisCamera::Impl {
   GPtr<ArvStream> stream;
   gulong control_lost_handler = 0;
   std::atomic<bool> control_lost{false};
+  bool unreachable = false;  ///< a control-channel call timed out: do not talk to it on close
   ArvPixelFormat pixel_format = 0;
   aravis::Scan3dParams scan3d;
   Intrinsics intrinsics;
@@ -284,7 +285,10 @@ Status AravisCamera::do_stop() {
 void AravisCamera::do_close() {
   if (impl_->stream) {
     GError* error = nullptr;
-    if (impl_->camera && !impl_->control_lost) arv_camera_stop_acquisition(impl_->camera.get(), &error);
+    // A camera that did not answer would make AcquisitionStop wait out the GVCP retries again.
+    if (impl_->camera && !impl_->control_lost && !impl_->unreachable) {
+      arv_camera_stop_acquisition(impl_->camera.get(), &error);
+    }
     g_clear_error(&error);
     update_stream_counters();
     impl_->drops_base = drops_.load();
@@ -296,6 +300,7 @@ void AravisCamera::do_close() {
     impl_->control_lost_handler = 0;
   }
   impl_->camera.reset();
+  impl_->unreachable = false;
   trigger_mode_ = false;
 }
 
@@ -304,19 +309,33 @@ Status AravisCamera::do_software_trigger() {
   arv_camera_software_trigger(impl_->camera.get(), &error);
   if (error != nullptr) {
     // A camera that no longer answers its control channel is gone: fault it so the supervisor
-    // reconnects (between triggers nothing else would notice).
+    // reconnects (between triggers nothing else would notice). A GVCP timeout already means
+    // Aravis resent the command several times without an answer: asking again (the probe) would
+    // only block the acquisition thread for as long once more.
+    const bool no_answer = error->domain == ARV_DEVICE_ERROR && error->code == ARV_DEVICE_ERROR_TIMEOUT;
     std::string why = take(error);
-    if (!probe_control()) mark_faulted();
+    if (no_answer || impl_->control_lost) {
+      impl_->unreachable = true;
+      mark_faulted();
+    } else if (!probe_control()) {
+      mark_faulted();
+    }
     return Error{"aravis: TriggerSoftware failed: " + why};
   }
   return {};
 }
 
+bool AravisCamera::do_alive() const { return !impl_->control_lost; }
+
 Status AravisCamera::probe_control() {
   if (impl_->control_lost) return Error{"control channel lost (heartbeat)"};
+  ControlCall call(*this);
   GError* error = nullptr;
   (void)arv_camera_get_integer(impl_->camera.get(), "PayloadSize", &error);
-  if (error != nullptr) return Error{take(error)};
+  if (error != nullptr) {
+    if (error->domain == ARV_DEVICE_ERROR && error->code == ARV_DEVICE_ERROR_TIMEOUT) impl_->unreachable = true;
+    return Error{take(error)};
+  }
   return {};
 }
 

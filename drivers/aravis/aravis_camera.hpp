@@ -42,6 +42,7 @@ class AravisCamera final : public Camera {
   void do_close() override;
   Expected<Frame> do_grab(std::chrono::milliseconds timeout) override;
   Status do_software_trigger() override;
+  [[nodiscard]] bool do_alive() const override;
 
  private:
   struct Impl;

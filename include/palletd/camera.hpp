@@ -89,9 +89,17 @@ class Camera {
   [[nodiscard]] virtual bool trigger_mode() const = 0;
   /// Asks the camera for one frame (trigger mode only; streaming only).
   Status software_trigger();
+  /// streaming only: faults the camera when its driver already knows it is gone without asking
+  /// it (Aravis: the heartbeat lost the control channel). No I/O; for the idle loop between
+  /// triggers, where nothing else would notice.
+  void check_alive();
 
   [[nodiscard]] CameraState state() const { return state_.load(); }
   [[nodiscard]] CameraCounters counters() const;
+  /// How long the driver's current call on the camera's control channel (a software trigger, a
+  /// probe after a timeout) has been running; zero when none is. Any thread: a camera that does
+  /// not answer shows here while the call is still blocked in the vendor library.
+  [[nodiscard]] std::chrono::milliseconds control_call_age() const;
   [[nodiscard]] CameraIdentity identity() const;
   /// The message of the last error any call returned ("" when none yet).
   [[nodiscard]] std::string last_error() const;
@@ -105,6 +113,8 @@ class Camera {
   virtual void do_close() = 0;
   virtual Expected<Frame> do_grab(std::chrono::milliseconds timeout) = 0;
   virtual Status do_software_trigger();
+  /// For drivers: false when the camera is known to be gone (no I/O). Default: true.
+  [[nodiscard]] virtual bool do_alive() const { return true; }
 
   /// For drivers: the camera is gone; the current grab returns an error and the state becomes
   /// `faulted` once do_grab() returns.
@@ -112,6 +122,20 @@ class Camera {
   void set_identity(CameraIdentity identity);
   /// For drivers: a grab ended without a frame in time.
   void count_timeout();
+
+  /// For drivers: brackets a call on the camera's control channel for control_call_age() (RAII;
+  /// nested brackets count from the outermost).
+  class ControlCall {
+   public:
+    explicit ControlCall(Camera& camera);
+    ~ControlCall();
+    ControlCall(const ControlCall&) = delete;
+    ControlCall& operator=(const ControlCall&) = delete;
+
+   private:
+    Camera& camera_;
+    bool outermost_;
+  };
 
   // Driver-side counters (frames, reconnects and faults are counted by the base class).
   std::atomic<std::uint64_t> drops_{0};
@@ -128,6 +152,7 @@ class Camera {
   std::atomic<std::uint64_t> timeouts_{0};
   std::atomic<std::uint64_t> reconnects_{0};
   std::atomic<std::uint64_t> faults_{0};
+  std::atomic<std::int64_t> control_call_since_ns_{0};  ///< steady clock [ns]; 0 = no call running
   mutable std::mutex text_mutex_;  ///< guards identity_ and last_error_
   CameraIdentity identity_;
   std::string last_error_;
@@ -159,7 +184,11 @@ class Backoff {
 /// read from other threads (the status page, the Modbus CameraOK bit).
 class CameraSupervisor {
  public:
-  CameraSupervisor(std::unique_ptr<Camera> camera, double reconnect_min_s, double reconnect_max_s);
+  /// `control_timeout`: a control-channel call (trigger, probe) running longer than this makes
+  /// camera_ok() false at once, before the vendor library gives up on it.
+  CameraSupervisor(std::unique_ptr<Camera> camera, double reconnect_min_s, double reconnect_max_s,
+                   std::chrono::milliseconds control_timeout = kDefaultControlTimeout);
+  static constexpr std::chrono::milliseconds kDefaultControlTimeout{1000};
   ~CameraSupervisor();
   CameraSupervisor(const CameraSupervisor&) = delete;
   CameraSupervisor& operator=(const CameraSupervisor&) = delete;
@@ -175,8 +204,11 @@ class CameraSupervisor {
   /// Stops and closes the camera (no further reconnects until the next grab()).
   void shutdown();
 
-  /// True while the camera is streaming and its last grab did not fault it.
-  [[nodiscard]] bool camera_ok() const { return camera_->state() == CameraState::streaming; }
+  /// True while the camera is streaming, its last grab or trigger did not fault it, and no
+  /// control-channel call has been waiting for the camera longer than the control timeout.
+  [[nodiscard]] bool camera_ok() const {
+    return camera_->state() == CameraState::streaming && camera_->control_call_age() < control_timeout_;
+  }
   [[nodiscard]] CameraState state() const { return camera_->state(); }
   [[nodiscard]] CameraCounters counters() const { return camera_->counters(); }
   [[nodiscard]] CameraIdentity identity() const { return camera_->identity(); }
@@ -190,6 +222,7 @@ class CameraSupervisor {
 
   std::unique_ptr<Camera> camera_;
   Backoff backoff_;
+  std::chrono::milliseconds control_timeout_;
   std::chrono::steady_clock::time_point next_attempt_;
   mutable std::mutex retry_mutex_;  ///< guards next_attempt_ for seconds_to_retry()
 };

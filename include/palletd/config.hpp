@@ -47,6 +47,9 @@ struct CameraConfig {
   double frame_timeout_ms = 2000.0;
   double reconnect_min_s = 0.5;   ///< first reconnect delay [s], doubling up to reconnect_max_s
   double reconnect_max_s = 10.0;
+  /// A call on the camera's control channel (software trigger, probe) not answered within this
+  /// clears CameraOK at once, before the vendor library gives up on the call [ms].
+  double control_timeout_ms = 1000.0;
   std::optional<Intrinsics> intrinsics_override;  ///< replaces what the camera reports
   ReplayCameraConfig replay;
   AravisCameraConfig aravis;

@@ -4,6 +4,8 @@
 //   pipeline     one detection per trigger on one long-lived worker, never two at once;
 //                publishes an immutable ResultSnapshot and the PLC's result record.
 //   modbus       the ModbusServer's poll loop (register image, handshake).
+//   status       the camera's state and counters into the status block every 100 ms (the
+//                acquisition thread may be blocked in a camera call meanwhile).
 //   main         the caller: signals, sd_notify (see run_daemon in daemon.hpp).
 //
 // Ownership: Service owns its threads and everything they use. latest() and health() may be
@@ -50,6 +52,11 @@ struct ServiceHealth {
   std::uint16_t modbus_port = 0;
   std::size_t modbus_connections = 0;
   std::uint64_t camera_restarts = 0;     ///< trigger-mode camera restarted after timeouts in a row
+  std::uint64_t incomplete_frames = 0;   ///< frames the driver refused (missing packets, wrong size/format)
+  std::uint64_t grab_timeouts = 0;       ///< grabs that ended without a frame in time
+  std::uint64_t dropped_frames = 0;      ///< frames the camera sent that were lost (no buffer, overrun)
+  std::uint64_t camera_losses = 0;       ///< times the camera was found gone (faulted)
+  std::uint64_t resent_packets = 0;      ///< GigE Vision packets resent on request
   std::uint64_t recordings = 0;          ///< frames recorded since start
   std::uint64_t recording_failures = 0;  ///< recordings that failed (disk full, read-only, ...)
   std::string last_recording_error;      ///< "" when the last recording succeeded

@@ -63,6 +63,7 @@ void Handshake::refresh() {
   s.latency_ms = latency_ms_;
   s.frames_grabbed = service_.frames_grabbed;
   s.camera_reconnects = service_.camera_reconnects;
+  s.camera_faults = service_.camera_faults;
   encode_status(s, options_.word_order, image_);
   ++version_;
 }

@@ -88,6 +88,13 @@ void encode_status(const StatusRecord& s, WordOrder order, RegisterImage& image)
   r[kRegLatencyMs] = milliseconds_to_register(s.latency_ms);
   put_u32(r + kRegFramesGrabbed, s.frames_grabbed, order);
   r[kRegCameraReconnects] = s.camera_reconnects;
+  const CameraFaultCounters& f = s.camera_faults;
+  put_u32(r + kRegIncompleteFrames, f.incomplete_frames, order);
+  put_u32(r + kRegGrabTimeouts, f.grab_timeouts, order);
+  put_u32(r + kRegDroppedFrames, f.dropped_frames, order);
+  put_u32(r + kRegCameraLosses, f.camera_losses, order);
+  put_u32(r + kRegCameraRestarts, f.camera_restarts, order);
+  put_u32(r + kRegResentPackets, f.resent_packets, order);
 }
 
 void clear_result(RegisterImage& image) {
@@ -191,6 +198,13 @@ StatusRecord decode_status(const RegisterImage& image, WordOrder order) {
   s.latency_ms = r[kRegLatencyMs];
   s.frames_grabbed = get_u32(r + kRegFramesGrabbed, order);
   s.camera_reconnects = r[kRegCameraReconnects];
+  CameraFaultCounters& f = s.camera_faults;
+  f.incomplete_frames = get_u32(r + kRegIncompleteFrames, order);
+  f.grab_timeouts = get_u32(r + kRegGrabTimeouts, order);
+  f.dropped_frames = get_u32(r + kRegDroppedFrames, order);
+  f.camera_losses = get_u32(r + kRegCameraLosses, order);
+  f.camera_restarts = get_u32(r + kRegCameraRestarts, order);
+  f.resent_packets = get_u32(r + kRegResentPackets, order);
   return s;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
 #include <mutex>
 #include <thread>
 
@@ -66,8 +67,9 @@ class Service::Impl {
     } catch (const std::exception& e) {
       return Error{std::string("camera: ") + e.what()};
     }
-    auto supervisor = std::make_unique<CameraSupervisor>(std::move(camera), cfg.camera.reconnect_min_s,
-                                                         cfg.camera.reconnect_max_s);
+    auto supervisor = std::make_unique<CameraSupervisor>(
+        std::move(camera), cfg.camera.reconnect_min_s, cfg.camera.reconnect_max_s,
+        std::chrono::milliseconds(static_cast<long>(cfg.camera.control_timeout_ms)));
     acquisition_ = std::make_unique<Acquisition>(std::move(supervisor),
                                                  [this](const CameraSupervisor& cam) { publish_status(cam); });
     if (cfg.recording.enabled) {
@@ -82,6 +84,7 @@ class Service::Impl {
     publish_status(acquisition_->camera());
     acquisition_->start();
     pipeline_ = std::thread([this] { pipeline_main(); });
+    status_ = std::thread([this] { status_main(); });
     spdlog::info("modbus server listening on {} port {}", cfg.modbus.bind_address, server_.port());
     return {};
   }
@@ -89,6 +92,8 @@ class Service::Impl {
   void stop() {
     if (!running_.exchange(false)) return;
     server_.stop();  // wakes wait_event()
+    status_cv_.notify_all();
+    if (status_.joinable()) status_.join();
     if (pipeline_.joinable()) pipeline_.join();
     if (acquisition_) acquisition_->stop();
   }
@@ -135,6 +140,11 @@ class Service::Impl {
       h.frames = c.frames;
       h.reconnects = c.reconnects;
       h.camera_restarts = acquisition_->camera_restarts();
+      h.incomplete_frames = c.incomplete;
+      h.grab_timeouts = c.timeouts;
+      h.dropped_frames = c.drops;
+      h.camera_losses = c.faults;
+      h.resent_packets = c.resent;
     }
     h.triggers = triggers_.load();
     h.results = results_.load();
@@ -179,10 +189,35 @@ class Service::Impl {
     status->acquisition_id = static_cast<std::uint16_t>(c.frames & 0xFFFF);
     status->frames_grabbed = static_cast<std::uint32_t>(c.frames);
     status->camera_reconnects = static_cast<std::uint16_t>(std::min<std::uint64_t>(c.reconnects, 65535));
+    // 32-bit counters wrap (a PLC computes differences modulo 2^32).
+    const auto u32 = [](std::uint64_t v) { return static_cast<std::uint32_t>(v & 0xFFFFFFFFu); };
+    modbus::CameraFaultCounters& f = status->camera_faults;
+    f.incomplete_frames = u32(c.incomplete);
+    f.grab_timeouts = u32(c.timeouts);
+    f.dropped_frames = u32(c.drops);
+    f.camera_losses = u32(c.faults);
+    f.camera_restarts = u32(acquisition_ ? acquisition_->camera_restarts() : 0);
+    f.resent_packets = u32(c.resent);
     // Base frame when calibrated in the config, or when the frames carry camera_to_base (replay of
     // a recording made on a calibrated cell).
     status->poses_in_camera_frame = !config()->T_base_camera.has_value() && !frames_have_base_.load();
     server_.publish_status(std::move(status));
+  }
+
+  // Status thread: the status block every 100 ms from atomics only. The acquisition thread also
+  // publishes, but it may block for seconds inside a camera call (Aravis retrying GVCP on a
+  // vanished camera); CameraOK must drop while it does, not when the call returns.
+  void status_main() {
+    std::unique_lock<std::mutex> lock(status_mutex_);
+    while (running_) {
+      status_cv_.wait_for(lock, 100ms, [this] { return !running_.load(); });
+      if (!running_) break;
+      try {
+        publish_status(acquisition_->camera());
+      } catch (const std::exception& e) {
+        spdlog::error("status: {}", e.what());
+      }
+    }
   }
 
   void pipeline_main() {
@@ -259,7 +294,7 @@ class Service::Impl {
     std::vector<BoxFormat> formats;
     for (int index : recipe.formats) formats.push_back(cfg.formats[static_cast<std::size_t>(index)]);
     const auto t0 = Clock::now();
-    Detection detection = detect(frame, formats, cfg.detection, &rays_);
+    Detection detection = detect(frame, formats, cfg.detection, workspace_);
     const double elapsed_ms = ms_between(t0, Clock::now());
     const bool base = frame.T_base_camera.has_value();
     record = to_result_record(detection, base);
@@ -317,8 +352,11 @@ class Service::Impl {
   modbus::ModbusServer server_;
   std::unique_ptr<Acquisition> acquisition_;
   std::unique_ptr<FrameRecorder> recorder_;  ///< pipeline thread only
-  RayTable rays_;                            ///< pipeline thread only
+  DetectionWorkspace workspace_;             ///< pipeline thread only: rays and cloud reused
   std::thread pipeline_;
+  std::thread status_;
+  std::mutex status_mutex_;  ///< for status_cv_ only
+  std::condition_variable status_cv_;
   std::atomic<bool> running_{false};
   std::atomic<bool> snapshot_requested_{false};
   std::atomic<bool> frames_have_base_{false};  ///< the last frame came with camera_to_base

@@ -57,8 +57,12 @@ void decorate(SimBox& box, const ScenarioOptions& o, Rng& rng) {
     const Eigen::Vector2d half(0.05, 0.035);
     const double mx = std::max(0.0, 0.5 * box.long_m - half.x() - 0.02);
     const double my = std::max(0.0, 0.5 * box.short_m - half.y() - 0.02);
-    box.patches.push_back({Eigen::Vector2d(rng.uniform(-mx, mx), rng.uniform(-my, my)), half,
-                           rng.uniform(0.8, 0.9)});
+    // One draw per statement (argument evaluation order is unspecified); the order is the one
+    // gcc used when the seeded sets were made: y, then x, then the reflectance.
+    const double label_y_m = rng.uniform(-my, my);
+    const double label_x_m = rng.uniform(-mx, mx);
+    const double label_rho = rng.uniform(0.8, 0.9);
+    box.patches.push_back({Eigen::Vector2d(label_x_m, label_y_m), half, label_rho});
   }
 }
 
@@ -115,7 +119,9 @@ std::vector<SimBox> build_layer(std::vector<PlacedBox> pattern, const std::vecto
   for (std::size_t i = 0; i < nominal.size(); ++i) {
     const double dl = rng.uniform(-o.size_tolerance_m, o.size_tolerance_m);
     const double ds = rng.uniform(-o.size_tolerance_m, o.size_tolerance_m);
-    const Eigen::Vector2d dc(rng.uniform(-o.jitter_m, o.jitter_m), rng.uniform(-o.jitter_m, o.jitter_m));
+    const double dc_y_m = rng.uniform(-o.jitter_m, o.jitter_m);  // y before x: see decorate()
+    const double dc_x_m = rng.uniform(-o.jitter_m, o.jitter_m);
+    const Eigen::Vector2d dc(dc_x_m, dc_y_m);
     const double dyaw = rng.uniform(-o.jitter_deg, o.jitter_deg) * kPi / 180.0;
     SimBox box = nominal[i];
     for (int attempt = 0; attempt <= 6; ++attempt) {
@@ -206,7 +212,9 @@ void place_camera(Scene& scene, const ScenarioOptions& o, const SensorProfile& p
     const double tilt = rng.uniform(0.0, tilt_max * (1.0 - share));
     const double azimuth = rng.uniform(0.0, 2.0 * kPi);
     const double roll = rng.uniform(0.0, 2.0 * kPi);
-    const Eigen::Vector3d target(mid.x() + rng.uniform(-0.03, 0.03), mid.y() + rng.uniform(-0.03, 0.03), scene.top_z_m);
+    const double target_dy_m = rng.uniform(-0.03, 0.03);  // y before x: see decorate()
+    const double target_dx_m = rng.uniform(-0.03, 0.03);
+    const Eigen::Vector3d target(mid.x() + target_dx_m, mid.y() + target_dy_m, scene.top_z_m);
     scene.T_world_camera = camera_pose(target, height, tilt, azimuth, roll);
     if (!o.keep_layer_in_view || layer_in_view(scene, profile.intrinsics, o.view_margin)) return;
   }

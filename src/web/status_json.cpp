@@ -181,6 +181,22 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
                        "since start"));
   status.push_back(row(image, modbus::kRegCameraReconnects, 1, "camera reconnects", std::to_string(st.camera_reconnects),
                        "since start"));
+  const modbus::CameraFaultCounters& faults = st.camera_faults;
+  const struct {
+    std::uint16_t reg;
+    const char* name;
+    std::uint32_t value;
+    const char* meaning;
+  } fault_rows[] = {
+      {modbus::kRegIncompleteFrames, "incomplete frames", faults.incomplete_frames, "refused: missing packets, size"},
+      {modbus::kRegGrabTimeouts, "grab timeouts", faults.grab_timeouts, "no frame in time (stalled camera)"},
+      {modbus::kRegDroppedFrames, "dropped frames", faults.dropped_frames, "lost before palletd saw them"},
+      {modbus::kRegCameraLosses, "camera losses", faults.camera_losses, "camera found gone"},
+      {modbus::kRegCameraRestarts, "camera restarts", faults.camera_restarts, "stalled camera restarted"},
+      {modbus::kRegResentPackets, "resent packets", faults.resent_packets, "GigE Vision packets resent"},
+  };
+  for (const auto& r : fault_rows)
+    status.push_back(row(image, r.reg, 2, r.name, std::to_string(r.value), std::string(r.meaning) + ", since start"));
 
   const modbus::ResultRecord& rec = res.record;
   Json result = Json::array();
@@ -317,6 +333,12 @@ Json status_json(const ServiceHealth& health, const modbus::RegisterImage& image
   counters["missed"] = st.missed_triggers;
   counters["reconnects"] = health.reconnects;
   counters["frames"] = health.frames;
+  counters["incomplete_frames"] = health.incomplete_frames;
+  counters["grab_timeouts"] = health.grab_timeouts;
+  counters["dropped_frames"] = health.dropped_frames;
+  counters["camera_losses"] = health.camera_losses;
+  counters["camera_restarts"] = health.camera_restarts;
+  counters["resent_packets"] = health.resent_packets;
   counters["window"] = figures.window;
   counters["processing_ms"] = {{"last", st.processing_ms},
                                {"p50", optional_number(figures.processing_p50_ms)},

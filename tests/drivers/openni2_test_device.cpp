@@ -16,13 +16,13 @@
 // DummyDevice lacks stride and cropping, so its recordings do not play).
 #include <Driver/OniDriverAPI.h>
 
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdlib>
 #include <cstring>
 #include <list>
+#include <memory>
 #include <mutex>
 #include <new>
 #include <string>
@@ -85,11 +85,18 @@ class TestStream : public oni::driver::StreamBase {
       : type_(type), rec_(rec), info_(info), mode_(info.pSupportedVideoModes[0]) {}
 
   OniStatus start() override {
+    std::lock_guard<std::mutex> lock(state_mutex_);
     running_ = true;
     return ONI_STATUS_OK;
   }
-  void stop() override { running_ = false; }
-  bool running() const { return running_; }
+  /// After stop() returns no frame of this stream is in OpenNI's hands any more: it waits for a
+  /// push under way (OpenNI calls stop() without holding its own locks, before it tears the
+  /// stream down).
+  void stop() override {
+    std::unique_lock<std::mutex> lock(state_mutex_);
+    running_ = false;
+    idle_.wait(lock, [this] { return pushing_ == 0; });
+  }
 
   int bytes_per_pixel() const { return mode_.pixelFormat == ONI_PIXEL_FORMAT_GRAY8 ? 1 : 2; }
   int getRequiredFrameSize() override { return rec_.width * rec_.height * bytes_per_pixel(); }
@@ -152,9 +159,25 @@ class TestStream : public oni::driver::StreamBase {
     }
   }
 
-  /// Delivers source frame `i` (counter `n`) when started.
+  /// Delivers source frame `i` (counter `n`) when started. Called with no lock of ours held:
+  /// raiseNewFrame takes OpenNI's locks (the stream's recorders, its frame holder), and OpenNI
+  /// holds those while it calls into the driver (destroyStream) - the other order.
   void push(std::size_t i, int n) {
-    if (!running_) return;
+    {
+      std::lock_guard<std::mutex> lock(state_mutex_);
+      if (!running_) return;
+      ++pushing_;
+    }
+    deliver(i, n);
+    {
+      std::lock_guard<std::mutex> lock(state_mutex_);
+      --pushing_;
+    }
+    idle_.notify_all();
+  }
+
+ private:
+  void deliver(std::size_t i, int n) {
     const std::vector<std::uint16_t>* src = nullptr;
     if (type_ == ONI_SENSOR_DEPTH) {
       src = mode_.pixelFormat == ONI_PIXEL_FORMAT_DEPTH_100_UM ? &rec_.depth_100um[i] : &rec_.depth_1mm[i];
@@ -187,7 +210,6 @@ class TestStream : public oni::driver::StreamBase {
     getServices().releaseFrame(frame);
   }
 
- private:
   template <typename T>
   static OniStatus put(const T& value, void* data, int* size) {
     if (*size < static_cast<int>(sizeof(T))) return ONI_STATUS_BAD_PARAMETER;
@@ -205,7 +227,10 @@ class TestStream : public oni::driver::StreamBase {
   const Recording& rec_;
   const OniSensorInfo& info_;
   OniVideoMode mode_;
-  std::atomic<bool> running_{false};
+  std::mutex state_mutex_;
+  std::condition_variable idle_;
+  bool running_ = false;  ///< guarded by state_mutex_
+  int pushing_ = 0;       ///< pushes under way; guarded by state_mutex_
 };
 
 class TestDevice : public oni::driver::DeviceBase {
@@ -238,20 +263,24 @@ class TestDevice : public oni::driver::DeviceBase {
 
   oni::driver::StreamBase* createStream(OniSensorType type) override {
     if (type != ONI_SENSOR_DEPTH && !(type == ONI_SENSOR_IR && rec_.ir_bits != 0)) return nullptr;
+    auto s = std::make_shared<TestStream>(type, rec_, type == ONI_SENSOR_DEPTH ? sensors_[0] : sensors_[1]);
     std::lock_guard<std::mutex> lock(mutex_);
-    auto* s = new TestStream(type, rec_, type == ONI_SENSOR_DEPTH ? sensors_[0] : sensors_[1]);
     streams_.push_back(s);
-    return s;
+    return s.get();
   }
+  /// The frame thread may still hold a reference (it pushes without the device lock); the stream
+  /// is stopped by then (OpenNI stops a stream before destroying it), so that last reference only
+  /// frees it.
   void destroyStream(oni::driver::StreamBase* stream) override {
+    std::shared_ptr<TestStream> gone;
     std::lock_guard<std::mutex> lock(mutex_);
     for (auto it = streams_.begin(); it != streams_.end(); ++it) {
-      if (*it == stream) {
+      if (it->get() == stream) {
+        gone = std::move(*it);
         streams_.erase(it);
         break;
       }
     }
-    delete stream;
   }
 
   OniBool isPropertySupported(int id) override { return id == ONI_DEVICE_PROPERTY_SERIAL_NUMBER ? TRUE : FALSE; }
@@ -274,7 +303,11 @@ class TestDevice : public oni::driver::DeviceBase {
       due += period;
       if (cv_.wait_until(lock, due, [this] { return quit_; })) break;
       const std::size_t i = static_cast<std::size_t>(n) % rec_.depth_1mm.size();
-      for (TestStream* s : streams_) s->push(i, n);
+      // Frames go out without the device lock held (see TestStream::push).
+      const std::vector<std::shared_ptr<TestStream>> streams = streams_;
+      lock.unlock();
+      for (const auto& s : streams) s->push(i, n);
+      lock.lock();
       ++n;
     }
   }
@@ -286,7 +319,7 @@ class TestDevice : public oni::driver::DeviceBase {
   std::mutex mutex_;
   std::condition_variable cv_;
   bool quit_ = false;
-  std::vector<TestStream*> streams_;
+  std::vector<std::shared_ptr<TestStream>> streams_;
   std::thread thread_;
 };
 
@@ -303,8 +336,16 @@ class TestDriver : public oni::driver::DriverBase {
     return st;
   }
 
+  /// A folder without frames is not announced: OpenNI2 2.2 allocates the device handle before
+  /// deviceOpen and loses it when deviceOpen then fails (a LeakSanitizer report inside
+  /// libOpenNI2); an unknown URI fails before that allocation.
   OniStatus tryDevice(const char* uri) override {
     if (uri == nullptr || std::strncmp(uri, kScheme, std::strlen(kScheme)) != 0) return ONI_STATUS_ERROR;
+    auto stems = palletd::list_frame_stems(uri + std::strlen(kScheme));
+    if (!stems || stems->empty()) {
+      getServices().errorLoggerAppend("palletd test device %s: no frames there", uri);
+      return ONI_STATUS_ERROR;
+    }
     announce(uri);
     return ONI_STATUS_OK;
   }

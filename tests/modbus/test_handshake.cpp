@@ -229,3 +229,26 @@ TEST_CASE("heartbeat counts seconds and the PLC heartbeat watch", "[modbus][hand
   plc.word(0);
   CHECK((plc.status() & (kStReady | kStError)) == kStReady);
 }
+
+TEST_CASE("the service's camera fault counters reach registers 118..129 in the configured word order",
+          "[modbus][handshake]") {
+  Clock::time_point now{};
+  HandshakeOptions options;
+  options.word_order = WordOrder::kLowWordFirst;
+  Handshake hs(options, now);
+  ServiceStatus s = ready_status();
+  s.camera_faults.incomplete_frames = 0x00020001u;
+  s.camera_faults.grab_timeouts = 3;
+  s.camera_faults.camera_losses = 4;
+  s.camera_faults.camera_restarts = 5;
+  hs.on_service_status(s);
+  const RegisterImage& r = hs.registers();
+  CHECK(r[kRegIncompleteFrames] == 0x0001);  // low word first
+  CHECK(r[kRegIncompleteFrames + 1] == 0x0002);
+  CHECK(r[kRegGrabTimeouts] == 3);
+  CHECK(decode_status(r, WordOrder::kLowWordFirst).camera_faults == s.camera_faults);
+  // A later status replaces the counters (they are the service's, not latched by the handshake).
+  s.camera_faults.grab_timeouts = 9;
+  hs.on_service_status(s);
+  CHECK(hs.registers()[kRegGrabTimeouts] == 9);
+}

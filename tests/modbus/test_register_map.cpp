@@ -149,3 +149,47 @@ TEST_CASE("the status block carries version, format flags and the test pattern",
   CHECK(image[kRegTestPattern] == 0x1234);
   CHECK(image[kRegFramesGrabbed] == 0x0001);
 }
+
+TEST_CASE("the camera fault counters follow the status block at 118..129, 32 bits each in the word order",
+          "[modbus][register_map]") {
+  // The registers of interface version 1 before the counters stay where they were.
+  CHECK(kRegCameraReconnects == 117);
+  CHECK(kRegIncompleteFrames == 118);
+  CHECK(kRegResentPackets + 2 == kStatusStart + kStatusCount);
+  CHECK(kStatusStart + kStatusCount <= kResultStart);
+
+  StatusRecord s;
+  s.frames_grabbed = 70000;
+  s.camera_reconnects = 3;
+  CameraFaultCounters& f = s.camera_faults;
+  f.incomplete_frames = 0x00010002u;
+  f.grab_timeouts = 0x00030004u;
+  f.dropped_frames = 5;
+  f.camera_losses = 0x00060000u;
+  f.camera_restarts = 7;
+  f.resent_packets = 0xFFFFFFFFu;
+  RegisterImage image{};
+  encode_status(s, WordOrder::kHighWordFirst, image);
+  CHECK(image[kRegCameraReconnects] == 3);
+  CHECK(image[kRegIncompleteFrames] == 0x0001);
+  CHECK(image[kRegIncompleteFrames + 1] == 0x0002);
+  CHECK(image[kRegGrabTimeouts] == 0x0003);
+  CHECK(image[kRegGrabTimeouts + 1] == 0x0004);
+  CHECK(image[kRegDroppedFrames + 1] == 5);
+  CHECK(image[kRegCameraLosses] == 0x0006);
+  CHECK(image[kRegCameraRestarts + 1] == 7);
+  CHECK(image[kRegResentPackets] == 0xFFFF);
+  CHECK(image[kRegResentPackets + 1] == 0xFFFF);
+  CHECK(image[kStatusStart + kStatusCount] == 0);  // the gap after the block stays 0
+  CHECK(decode_status(image, WordOrder::kHighWordFirst).camera_faults == f);
+
+  RegisterImage low{};
+  encode_status(s, WordOrder::kLowWordFirst, low);
+  CHECK(low[kRegIncompleteFrames] == 0x0002);
+  CHECK(low[kRegIncompleteFrames + 1] == 0x0001);
+  CHECK(low[kRegCameraLosses] == 0x0000);
+  CHECK(low[kRegCameraLosses + 1] == 0x0006);
+  CHECK(decode_status(low, WordOrder::kLowWordFirst).camera_faults == f);
+  // Decoded in the wrong order, the counters read differently (the order matters).
+  CHECK_FALSE(decode_status(low, WordOrder::kHighWordFirst).camera_faults == f);
+}

@@ -292,11 +292,11 @@ TEST_CASE("an impossible length field closes the connection", "[modbus][server]"
   for (const std::uint8_t length_low : {std::uint8_t{0}, std::uint8_t{1}}) {
     RawClient raw("127.0.0.1", s.port());
     REQUIRE(raw.send({0, 1, 0, 0, 0, length_low, 1, 3}));
-    CHECK(raw.closed_by_peer(milliseconds(2000)));
+    CHECK(raw.closed_by_peer_peek(milliseconds(2000)));
   }
   RawClient big("127.0.0.1", s.port());
   REQUIRE(big.send({0, 1, 0, 0, 0x01, 0x00, 1, 3}));  // 256 > 254
-  CHECK(big.closed_by_peer(milliseconds(2000)));
+  CHECK(big.closed_by_peer_peek(milliseconds(2000)));
 }
 
 TEST_CASE("a client trickling half a frame does not block others", "[modbus][server]") {
@@ -337,7 +337,7 @@ TEST_CASE("at the connection cap the longest idle connection is closed", "[modbu
   REQUIRE(ping(c1, 3));  // c2 is now the longest idle
   RawClient c3("127.0.0.1", s.port());
   REQUIRE(ping(c3, 4));
-  CHECK(c2.closed_by_peer(milliseconds(2000)));
+  CHECK(c2.closed_by_peer_peek(milliseconds(2000)));
   CHECK(ping(c1, 5));
   CHECK(ping(c3, 6));
   CHECK(s.server.stats().connections_evicted == 1);
@@ -349,7 +349,7 @@ TEST_CASE("allow list refuses other peers, read-only peers cannot write", "[modb
   refused.allow = {"10.0.0.0/8", "fd00::/8"};
   Server s1(refused);
   RawClient outsider("127.0.0.1", s1.port());
-  CHECK(outsider.closed_by_peer(milliseconds(2000)));
+  CHECK(outsider.closed_by_peer_peek(milliseconds(2000)));
   // Statistics are published at the end of the loop iteration that closed the connection.
   const auto deadline = Clock::now() + std::chrono::seconds(2);
   while (s1.server.stats().connections_refused == 0 && Clock::now() < deadline) {
@@ -389,7 +389,7 @@ TEST_CASE("idle connections are closed after the idle timeout", "[modbus][server
   bool closed = false;
   while (!closed && Clock::now() - start < std::chrono::seconds(3)) {
     REQUIRE(busy.reg(kRegInterfaceVersion) == 1);  // keeps `busy` active
-    closed = quiet.closed_by_peer(milliseconds(100));
+    closed = quiet.closed_by_peer_peek(milliseconds(100));
   }
   CHECK(closed);
   CHECK(std::chrono::duration<double>(Clock::now() - start).count() >= 0.25);

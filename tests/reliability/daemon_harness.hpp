@@ -1,5 +1,6 @@
-// Test harness for the reliability tests: runs the real palletd executable (as systemd would:
-// NOTIFY_SOCKET, its output in a log file), writes configurations, reads the daemon's RSS and
+// Test harness for the tests that run the real palletd executable (tests/reliability, and
+// tests/service/test_daemon.cpp): starts it as systemd would (NOTIFY_SOCKET, its output in a log
+// file), stands in for systemd's notify socket, writes configurations, reads the daemon's RSS and
 // open file descriptors from /proc, and hands out free loopback ports.
 #pragma once
 
@@ -118,8 +119,9 @@ struct NotifySocket {
   }
 };
 
-/// The palletd executable of this build tree, run with `args`, output to `log`. `prefix` runs it
-/// through another program (e.g. unshare); that program must exec palletd so the pid stays.
+/// The palletd executable of this build tree, run with `args`, output to `log` (empty: this
+/// process's stdout and stderr). `prefix` runs it through another program (e.g. unshare); that
+/// program must exec palletd so the pid stays.
 struct Daemon {
   pid_t pid = -1;
   fs::path log;
@@ -142,8 +144,10 @@ struct Daemon {
     argv.push_back(nullptr);
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    if (!log.empty()) {
+      posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+      posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    }
     const int rc = prefix.empty() ? ::posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), env.data())
                                   : ::posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), env.data());
     posix_spawn_file_actions_destroy(&actions);
@@ -184,7 +188,7 @@ struct Daemon {
     }
     return -1;
   }
-  [[nodiscard]] std::string log_text() const { return read_text(log); }
+  [[nodiscard]] std::string log_text() const { return log.empty() ? std::string() : read_text(log); }
   [[nodiscard]] std::size_t open_fds() const {
     std::size_t n = 0;
     std::error_code ec;

@@ -2,14 +2,12 @@
 // connections, slow-byte senders, pipelined requests, malformed MBAP headers, oversize lengths,
 // writes from a read-only and from an unlisted address. The connection cap and the allow-list
 // hold and the PLC's own connection keeps working throughout.
-#include <arpa/inet.h>
-#include <netinet/tcp.h>
-#include <poll.h>
-
 #include <atomic>
+#include <memory>
 #include <random>
 
 #include "daemon_harness.hpp"
+#include "../modbus/raw_client.hpp"
 #include "palletd/modbus/client.hpp"
 #include "palletd/modbus/register_map.hpp"
 
@@ -18,91 +16,35 @@ using namespace palletd::modbus;
 
 namespace {
 
-/// A TCP client from a chosen loopback source address, sending hand-made Modbus frames.
-class Raw {
- public:
-  Raw(const char* source, int port, bool blocking_connect = true) {
-    fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | (blocking_connect ? 0 : SOCK_NONBLOCK), 0);
-    if (fd_ < 0) return;
-    sockaddr_in src{};
-    src.sin_family = AF_INET;
-    inet_pton(AF_INET, source, &src.sin_addr);
-    if (::bind(fd_, reinterpret_cast<sockaddr*>(&src), sizeof src) != 0) return;
-    sockaddr_in dst{};
-    dst.sin_family = AF_INET;
-    dst.sin_port = htons(static_cast<std::uint16_t>(port));
-    dst.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    const int rc = ::connect(fd_, reinterpret_cast<sockaddr*>(&dst), sizeof dst);
-    connected_ = rc == 0 || errno == EINPROGRESS;
-    const int on = 1;
-    setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
-  }
-  ~Raw() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  Raw(const Raw&) = delete;
-  Raw& operator=(const Raw&) = delete;
-  [[nodiscard]] bool connected() const { return connected_; }
+using palletd::modbus::test::RawClient;
+using palletd::modbus::test::RawClientOptions;
 
-  static std::vector<std::uint8_t> frame(std::uint16_t tid, const std::vector<std::uint8_t>& pdu,
-                                         std::uint16_t protocol = 0, int length_override = -1) {
-    const auto length = static_cast<std::uint16_t>(length_override >= 0 ? length_override : static_cast<int>(pdu.size()) + 1);
-    std::vector<std::uint8_t> f = {static_cast<std::uint8_t>(tid >> 8), static_cast<std::uint8_t>(tid),
-                                   static_cast<std::uint8_t>(protocol >> 8), static_cast<std::uint8_t>(protocol),
-                                   static_cast<std::uint8_t>(length >> 8), static_cast<std::uint8_t>(length), 1};
-    f.insert(f.end(), pdu.begin(), pdu.end());
-    return f;
-  }
-  static std::vector<std::uint8_t> pdu(std::uint8_t function, std::uint16_t address, std::uint16_t value) {
-    return {function, static_cast<std::uint8_t>(address >> 8), static_cast<std::uint8_t>(address),
-            static_cast<std::uint8_t>(value >> 8), static_cast<std::uint8_t>(value)};
-  }
-  bool send(const std::vector<std::uint8_t>& bytes) {
-    return ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(bytes.size());
-  }
-  /// One response frame, or empty on timeout / close.
-  std::vector<std::uint8_t> receive(std::chrono::milliseconds timeout = 2000ms) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    for (;;) {
-      if (buffer_.size() >= 6) {
-        const std::size_t size = 6 + ((static_cast<std::size_t>(buffer_[4]) << 8) | buffer_[5]);
-        if (buffer_.size() >= size) {
-          std::vector<std::uint8_t> out(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(size));
-          buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(size));
-          return out;
-        }
-      }
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-      if (left.count() <= 0) return {};
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, static_cast<int>(left.count())) <= 0) return {};
-      std::uint8_t chunk[4096];
-      const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
-      if (n <= 0) {
-        closed_ = true;
-        return {};
-      }
-      buffer_.insert(buffer_.end(), chunk, chunk + n);
-    }
-  }
-  bool closed_by_peer(std::chrono::milliseconds timeout) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (!closed_ && std::chrono::steady_clock::now() < deadline) {
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 50) <= 0) continue;
-      std::uint8_t chunk[256];
-      const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
-      if (n <= 0) closed_ = true;
-    }
-    return closed_;
-  }
+constexpr double kTimeScale = PALLETD_TEST_TIME_SCALE;
 
- private:
-  int fd_ = -1;
-  bool connected_ = false;
-  bool closed_ = false;
-  std::vector<std::uint8_t> buffer_;
-};
+/// `d` stretched for sanitizer builds.
+std::chrono::milliseconds scaled(std::chrono::milliseconds d) {
+  return std::chrono::milliseconds(static_cast<long>(static_cast<double>(d.count()) * kTimeScale));
+}
+
+/// How long an answer may take.
+const std::chrono::milliseconds kAnswer = scaled(2000ms);
+
+/// A client of the daemon at `port` coming from `source` (a loopback address).
+std::unique_ptr<RawClient> raw(int port, const char* source = "127.0.0.1", bool nonblocking_connect = false) {
+  RawClientOptions options;
+  options.source = source;
+  options.nonblocking_connect = nonblocking_connect;
+  return std::make_unique<RawClient>("127.0.0.1", static_cast<std::uint16_t>(port), options);
+}
+
+/// A request frame with unit id 1.
+std::vector<std::uint8_t> frame(std::uint16_t tid, const std::vector<std::uint8_t>& pdu, std::uint16_t protocol = 0,
+                                int length_override = -1) {
+  return RawClient::frame(tid, 1, pdu, protocol, length_override);
+}
+std::vector<std::uint8_t> pdu(std::uint8_t function, std::uint16_t address, std::uint16_t value) {
+  return RawClient::pdu(function, address, value);
+}
 
 std::uint8_t exception_of(const std::vector<std::uint8_t>& r) {
   return r.size() == 9 && (r[7] & 0x80) != 0 ? r[8] : 0;
@@ -124,7 +66,7 @@ struct PlcLoop {
       }
       std::uint16_t id = 100;
       while (!stop) {
-        auto r = plc.trigger(6, id++, 10s);
+        auto r = plc.trigger(6, id++, scaled(10s));
         if (r) {
           ++ok;
         } else {
@@ -155,23 +97,24 @@ TEST_CASE("abuse over loopback: the cap and the allow-list hold and the PLC keep
                                                  "pipeline:\n  default_recipe: 6\nlogging:\n  level: info\n");
   NotifySocket notify;
   Daemon daemon({"--config", config.string()}, notify.path, dir.path / "palletd.log");
-  REQUIRE(notify.wait_for("READY=1", 10s));
+  REQUIRE(notify.wait_for("READY=1", scaled(10s)));
   const std::size_t fds_idle = daemon.open_fds();
   PlcLoop plc(port);
-  for (int i = 0; i < 200 && plc.ok == 0; ++i) std::this_thread::sleep_for(50ms);
+  for (int i = 0; i < 200 * PALLETD_TEST_TIME_SCALE && plc.ok == 0; ++i) std::this_thread::sleep_for(50ms);
   REQUIRE(plc.ok > 0);
 
   {
     // 1000 connections opened at once (non-blocking connects), held while the PLC triggers.
     REQUIRE(raise_fd_limit() >= 1100);
-    std::vector<std::unique_ptr<Raw>> burst;
-    for (int i = 0; i < 1000; ++i) burst.push_back(std::make_unique<Raw>("127.0.0.1", port, false));
+    std::vector<std::unique_ptr<RawClient>> burst;
+    for (int i = 0; i < 1000; ++i) burst.push_back(raw(port, "127.0.0.1", /*nonblocking_connect=*/true));
     std::size_t connected = 0;
     for (const auto& c : burst) connected += c->connected() ? 1 : 0;
     CHECK(connected >= 900);
     const int ok_before = plc.ok;
     std::size_t fds_max = 0;
-    for (int i = 0; i < 40; ++i) {  // 2 s with the burst open
+    // 2 s with the burst open (longer in sanitizer builds while the PLC has not got through).
+    for (int i = 0; i < 40 || (i < 40 * PALLETD_TEST_TIME_SCALE && plc.ok == ok_before); ++i) {
       fds_max = std::max(fds_max, daemon.open_fds());
       std::this_thread::sleep_for(50ms);
     }
@@ -185,15 +128,15 @@ TEST_CASE("abuse over loopback: the cap and the allow-list hold and the PLC keep
 
   {
     // Slow-byte senders: 8 clients trickle one request a byte every 30 ms; each gets its answer.
-    std::vector<std::unique_ptr<Raw>> slow;
-    for (int i = 0; i < 8; ++i) slow.push_back(std::make_unique<Raw>("127.0.0.1", port));
-    const auto request = Raw::frame(77, Raw::pdu(3, kRegInterfaceVersion, 1));
+    std::vector<std::unique_ptr<RawClient>> slow;
+    for (int i = 0; i < 8; ++i) slow.push_back(raw(port));
+    const auto request = frame(77, pdu(3, kRegInterfaceVersion, 1));
     for (std::size_t b = 0; b < request.size(); ++b) {
       for (auto& c : slow) REQUIRE(c->send({request[b]}));
       std::this_thread::sleep_for(30ms);
     }
     for (auto& c : slow) {
-      const auto r = c->receive();
+      const auto r = c->receive(kAnswer);
       REQUIRE(r.size() == 11);
       CHECK(tid_of(r) == 77);
       CHECK(r[10] == 1);  // interface version
@@ -202,16 +145,16 @@ TEST_CASE("abuse over loopback: the cap and the allow-list hold and the PLC keep
 
   {
     // Pipelined: 100 requests in one write, 100 answers in order.
-    Raw pipe("127.0.0.1", port);
+    auto pipe = raw(port);
     std::vector<std::uint8_t> batch;
     for (std::uint16_t t = 0; t < 100; ++t) {
-      const auto f = Raw::frame(static_cast<std::uint16_t>(1000 + t), Raw::pdu(4, kRegTestPattern, 2));
+      const auto f = frame(static_cast<std::uint16_t>(1000 + t), pdu(4, kRegTestPattern, 2));
       batch.insert(batch.end(), f.begin(), f.end());
     }
-    REQUIRE(pipe.send(batch));
+    REQUIRE(pipe->send(batch));
     int in_order = 0;
     for (std::uint16_t t = 0; t < 100; ++t) {
-      const auto r = pipe.receive();
+      const auto r = pipe->receive(kAnswer);
       if (r.size() == 13 && tid_of(r) == 1000 + t && r[9] == 0x12 && r[10] == 0x34) ++in_order;
     }
     CHECK(in_order == 100);
@@ -219,35 +162,35 @@ TEST_CASE("abuse over loopback: the cap and the allow-list hold and the PLC keep
 
   {
     // Malformed MBAP headers and oversize lengths.
-    Raw other_protocol("127.0.0.1", port);
-    REQUIRE(other_protocol.send(Raw::frame(5, Raw::pdu(3, 108, 1), /*protocol=*/7)));
-    CHECK(other_protocol.receive(300ms).empty());  // not Modbus: no answer
-    REQUIRE(other_protocol.send(Raw::frame(6, Raw::pdu(3, 108, 1))));
-    CHECK(tid_of(other_protocol.receive()) == 6);  // and the connection still serves
+    auto other_protocol = raw(port);
+    REQUIRE(other_protocol->send(frame(5, pdu(3, 108, 1), /*protocol=*/7)));
+    CHECK(other_protocol->receive(300ms).empty());  // not Modbus: no answer
+    REQUIRE(other_protocol->send(frame(6, pdu(3, 108, 1))));
+    CHECK(tid_of(other_protocol->receive(kAnswer)) == 6);  // and the connection still serves
     for (const int length : {0, 1, 255, 0xFFFF}) {
-      Raw bad("127.0.0.1", port);
-      REQUIRE(bad.send(Raw::frame(8, Raw::pdu(3, 108, 1), 0, length)));
+      auto bad = raw(port);
+      REQUIRE(bad->send(frame(8, pdu(3, 108, 1), 0, length)));
       INFO("length field " << length);
-      CHECK(bad.closed_by_peer(2000ms));
+      CHECK(bad->closed_by_peer_drain(kAnswer));
     }
     // Oversize quantities and out-of-range addresses: exceptions 03 / 02.
-    Raw q("127.0.0.1", port);
-    REQUIRE(q.send(Raw::frame(9, Raw::pdu(3, 200, 126))));
-    CHECK(exception_of(q.receive()) == 3);
-    REQUIRE(q.send(Raw::frame(10, Raw::pdu(3, 500, 40))));
-    CHECK(exception_of(q.receive()) == 2);
+    auto q = raw(port);
+    REQUIRE(q->send(frame(9, pdu(3, 200, 126))));
+    CHECK(exception_of(q->receive(kAnswer)) == 3);
+    REQUIRE(q->send(frame(10, pdu(3, 500, 40))));
+    CHECK(exception_of(q->receive(kAnswer)) == 2);
     // FC16 announcing 124 registers (limit 123) with a byte count that does not match.
-    REQUIRE(q.send(Raw::frame(11, {16, 0, 0, 0, 124, 2, 0, 0})));
-    CHECK(exception_of(q.receive()) == 3);
+    REQUIRE(q->send(frame(11, {16, 0, 0, 0, 124, 2, 0, 0})));
+    CHECK(exception_of(q->receive(kAnswer)) == 3);
     // Seeded random garbage: the daemon answers, drops or closes, but never stops serving the PLC.
     std::mt19937 rng(9);
     for (int i = 0; i < 50; ++i) {
-      Raw g("127.0.0.1", port);
+      auto g = raw(port);
       std::vector<std::uint8_t> junk(static_cast<std::size_t>(8 + rng() % 300));
       for (auto& b : junk) b = static_cast<std::uint8_t>(rng());
       if (i % 2 == 0) junk[2] = junk[3] = 0;  // half of them with protocol id 0
-      (void)g.send(junk);
-      (void)g.receive(20ms);
+      (void)g->send(junk);
+      (void)g->receive(20ms);
     }
   }
 
@@ -258,33 +201,33 @@ TEST_CASE("abuse over loopback: the cap and the allow-list hold and the PLC keep
     REQUIRE(reader.connect());
     RegisterImage before{};
     REQUIRE(reader.read(kControlStart, kControlCount, before));
-    Raw ro("127.0.0.2", port);
-    REQUIRE(ro.connected());
-    REQUIRE(ro.send(Raw::frame(20, Raw::pdu(6, kRegRequestId, 4321))));
-    CHECK(exception_of(ro.receive()) == 2);
-    REQUIRE(ro.send(Raw::frame(21, Raw::pdu(6, kRegControlWord, kCtlTrigger))));
-    CHECK(exception_of(ro.receive()) == 2);
-    REQUIRE(ro.send(Raw::frame(22, Raw::pdu(3, kRegInterfaceVersion, 1))));
-    const auto read_ok = ro.receive();
+    auto ro = raw(port, "127.0.0.2");
+    REQUIRE(ro->connected());
+    REQUIRE(ro->send(frame(20, pdu(6, kRegRequestId, 4321))));
+    CHECK(exception_of(ro->receive(kAnswer)) == 2);
+    REQUIRE(ro->send(frame(21, pdu(6, kRegControlWord, kCtlTrigger))));
+    CHECK(exception_of(ro->receive(kAnswer)) == 2);
+    REQUIRE(ro->send(frame(22, pdu(3, kRegInterfaceVersion, 1))));
+    const auto read_ok = ro->receive(kAnswer);
     CHECK((read_ok.size() == 11 && read_ok[10] == 1));  // reads are fine
-    Raw plc_side("127.0.0.1", port);
-    REQUIRE(plc_side.send(Raw::frame(23, Raw::pdu(6, kRegStatusWord, 0xFFFF))));
-    CHECK(exception_of(plc_side.receive()) == 2);
-    REQUIRE(plc_side.send(Raw::frame(24, Raw::pdu(6, kRegResultId, 7))));
-    CHECK(exception_of(plc_side.receive()) == 2);
+    auto plc_side = raw(port);
+    REQUIRE(plc_side->send(frame(23, pdu(6, kRegStatusWord, 0xFFFF))));
+    CHECK(exception_of(plc_side->receive(kAnswer)) == 2);
+    REQUIRE(plc_side->send(frame(24, pdu(6, kRegResultId, 7))));
+    CHECK(exception_of(plc_side->receive(kAnswer)) == 2);
     RegisterImage after{};
     REQUIRE(reader.read(kControlStart, kControlCount, after));
     CHECK(after[kRegRequestId] != 4321);
-    Raw outsider("127.0.0.3", port);
-    REQUIRE(outsider.connected());
-    (void)outsider.send(Raw::frame(30, Raw::pdu(6, kRegControlWord, kCtlTrigger)));
-    CHECK(outsider.receive(500ms).empty());
-    CHECK(outsider.closed_by_peer(2000ms));
+    auto outsider = raw(port, "127.0.0.3");
+    REQUIRE(outsider->connected());
+    (void)outsider->send(frame(30, pdu(6, kRegControlWord, kCtlTrigger)));
+    CHECK(outsider->receive(500ms).empty());
+    CHECK(outsider->closed_by_peer_drain(kAnswer));
   }
 
   // The PLC went on throughout; one more handshake after the abuse, and the daemon is intact.
   const int ok_end = plc.ok;
-  std::this_thread::sleep_for(600ms);
+  for (int i = 0; i < 12 * PALLETD_TEST_TIME_SCALE && plc.ok == ok_end; ++i) std::this_thread::sleep_for(50ms);
   CHECK(plc.ok > ok_end);
   INFO(plc.first_error);
   CHECK(plc.finish() == 0);
@@ -294,5 +237,5 @@ TEST_CASE("abuse over loopback: the cap and the allow-list hold and the PLC keep
   CHECK(log.find("not on the allow list") != std::string::npos);
   CHECK(log.find("connection cap reached") != std::string::npos);
   ::kill(daemon.pid, SIGTERM);
-  CHECK(daemon.wait_exit(3s) == 0);
+  CHECK(daemon.wait_exit(scaled(3s)) == 0);
 }

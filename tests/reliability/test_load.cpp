@@ -2,13 +2,18 @@
 // 200 ms. Every handshake completes and no request goes unanswered. The trigger-to-ResultReady
 // latency is measured idle and under load in the same run and printed; the 1.5x comparison is a
 // benchmark (tests/bench/load_bench.sh), not asserted here, because a shared 2-core CI machine
-// cannot promise timing.
+// cannot promise timing. Time bounds are multiplied by PALLETD_TEST_TIME_SCALE (1; 8 in sanitizer
+// builds, tests/CMakeLists.txt), the daemon's detection timeout included.
 #include <cstdio>
 
 #include "daemon_harness.hpp"
 #include "plc_load.hpp"
 
 using namespace palletd::test;
+
+namespace {
+constexpr int kTimeScale = PALLETD_TEST_TIME_SCALE;
+}  // namespace
 
 TEST_CASE("32 pollers at 100 Hz while the PLC triggers every 200 ms: every handshake completes - no request unanswered") {
   TempDir dir("load");
@@ -17,16 +22,18 @@ TEST_CASE("32 pollers at 100 Hz while the PLC triggers every 200 ms: every hands
                                                  std::string(PALLETD_TEST_DATA_DIR) +
                                                  "\nmodbus:\n  bind_address: 127.0.0.1\n  port: " + std::to_string(port) +
                                                  "\n  max_connections: 48\npipeline:\n  default_recipe: 6\n"
+                                                 "  detection_timeout_ms: " + std::to_string(2000 * kTimeScale) + "\n"
                                                  "logging:\n  level: warn\n");
   NotifySocket notify;
   Daemon daemon({"--config", config.string()}, notify.path, dir.path / "palletd.log");
-  REQUIRE(notify.wait_for("READY=1", 10s));
+  REQUIRE(notify.wait_for("READY=1", 10s * kTimeScale));
 
   LoadOptions idle;
   idle.port = port;
   idle.trigger_period_ms = 200.0;
   idle.triggers = 22;  // each bundled frame once
-  idle.duration_s = 60.0;
+  idle.duration_s = 60.0 * kTimeScale;
+  idle.handshake_timeout_ms = 10000.0 * kTimeScale;
   const LoadReport quiet = run_load(idle);
   INFO("idle errors: " << (quiet.errors.empty() ? "" : quiet.errors.front()));
   CHECK(quiet.handshakes_ok == 22);
@@ -52,5 +59,5 @@ TEST_CASE("32 pollers at 100 Hz while the PLC triggers every 200 ms: every hands
               "(x%.2f); poll rate %.1f Hz per client (4 requests per cycle)\n",
               a.p50_ms, a.p99_ms, b.p50_ms, b.p99_ms, a.p99_ms > 0 ? b.p99_ms / a.p99_ms : 0.0, rate);
   ::kill(daemon.pid, SIGTERM);
-  CHECK(daemon.wait_exit(3s) == 0);
+  CHECK(daemon.wait_exit(3s * kTimeScale) == 0);
 }

@@ -158,7 +158,14 @@ TEST_CASE("a camera that is gone fails the trigger, drops CameraOK, and recovers
   CHECK(recovered->status.error != ErrorCode::kCameraDisconnected);
   CHECK(recovered->status.error != ErrorCode::kFrameTimeout);
   CHECK((recovered->status.status_word & palletd::modbus::kStCameraOk) != 0);
-  CHECK(service.health().reconnects >= 1);
+  const palletd::ServiceHealth health = service.health();
+  CHECK(health.reconnects >= 1);
+  // The loss is counted in the health and in the status registers 124-125 alike.
+  CHECK(health.camera_losses >= 1);
+  CHECK(health.camera_losses >= health.reconnects);
+  CHECK(recovered->status.camera_faults.camera_losses >= 1);
+  CHECK(recovered->status.camera_faults.camera_losses <= health.camera_losses);
+  CHECK(recovered->status.camera_faults.incomplete_frames <= health.incomplete_frames);
 }
 
 TEST_CASE("a trigger while Busy sets MissedTrigger and counts, result ids advance per result") {

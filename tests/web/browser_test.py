@@ -45,6 +45,38 @@ def wait_http(url, deadline_s=30.0):
     raise SystemExit(f"FAIL: {url} did not answer within {deadline_s} s")
 
 
+def scaled_config(path, work, scale):
+    """A copy of the configuration at `path` in `work` with pipeline.detection_timeout_ms scaled
+    (from the default 2000 ms) and a relative camera.replay.directory made absolute. Text edits,
+    one level of nesting, as config/demo.yaml is written."""
+    base = os.path.dirname(os.path.abspath(path))
+    timeout = f"  detection_timeout_ms: {2000.0 * scale:.0f}"
+    out, section, sub, placed = [], None, None, False
+    with open(path, encoding="utf-8") as f:
+        for line in f.read().splitlines():
+            stripped = line.split("#", 1)[0].rstrip()
+            if stripped and not line[0].isspace():
+                if section == "pipeline" and not placed:
+                    out.append(timeout)
+                    placed = True
+                section, sub = stripped.rstrip(":"), None
+            elif stripped.startswith("  ") and not stripped.startswith("   ") and stripped.endswith(":"):
+                sub = stripped.strip().rstrip(":")
+            if section == "pipeline" and stripped.strip().startswith("detection_timeout_ms:"):
+                continue
+            if section == "camera" and sub == "replay" and stripped.strip().startswith("directory:"):
+                value = stripped.split(":", 1)[1].strip()
+                if value and not os.path.isabs(value):
+                    line = line[: line.index("directory:")] + "directory: " + os.path.normpath(os.path.join(base, value))
+            out.append(line)
+    if not placed:
+        out += (["pipeline:"] if section != "pipeline" else []) + [timeout]
+    copy = os.path.join(work, "palletd.yaml")
+    with open(copy, "w", encoding="utf-8") as f:
+        f.write("\n".join(out) + "\n")
+    return copy
+
+
 class Dom(html.parser.HTMLParser):
     """Collects body data attributes, the box table's body rows and the overlay <img>."""
 
@@ -86,7 +118,11 @@ def main():
     ap.add_argument("--config")
     ap.add_argument("--replay")
     ap.add_argument("--screenshot")
+    # Time bounds (the daemon's detection timeout included) are multiplied by this: 1, or
+    # PALLETD_TEST_TIME_SCALE (8) from tests/web/CMakeLists.txt in sanitizer builds.
+    ap.add_argument("--time-scale", type=float, default=1.0)
     args = ap.parse_args()
+    scale = args.time_scale
 
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if not chromium:
@@ -106,17 +142,19 @@ def main():
             if not (args.daemon and args.palletctl and args.config):
                 raise SystemExit("FAIL: --fixture, or --daemon with --palletctl and --config")
             port, modbus_port = free_port(), free_port()
-            cmd = [args.daemon, "--config", args.config, "--bind", "127.0.0.1", "--port", str(modbus_port),
+            config = args.config if scale == 1.0 else scaled_config(args.config, work, scale)
+            cmd = [args.daemon, "--config", config, "--bind", "127.0.0.1", "--port", str(modbus_port),
                    "--web-port", str(port)]
             if args.replay:
                 cmd += ["--replay", args.replay]
             server = subprocess.Popen(cmd)
-            wait_http(f"http://127.0.0.1:{port}/api/status")
-            subprocess.run([args.palletctl, "trigger", "--host", "127.0.0.1", "--port", str(modbus_port)],
-                           check=True, timeout=60)
+            wait_http(f"http://127.0.0.1:{port}/api/status", 30.0 * scale)
+            subprocess.run([args.palletctl, "trigger", "--host", "127.0.0.1", "--port", str(modbus_port),
+                            "--timeout-ms", str(int(10000 * scale))],
+                           check=True, timeout=60 * scale)
         base = f"http://127.0.0.1:{port}"
-        wait_http(base + "/api/status")
-        status, result = http_json(base + "/api/result")
+        wait_http(base + "/api/status", 30.0 * scale)
+        status, result = http_json(base + "/api/result", 5.0 * scale)
         want = len(result["boxes"])
         print(f"server on {base}: result of trigger {result['trigger']['seq']} with {want} boxes")
         if want == 0:
@@ -124,7 +162,7 @@ def main():
 
         profile = os.path.join(work, "profile")
         dom_run = subprocess.run(chromium_cmd(chromium, profile, ["--dump-dom"], base + "/"),
-                                 capture_output=True, text=True, timeout=120)
+                                 capture_output=True, text=True, timeout=120 * scale)
         if dom_run.returncode != 0:
             print(dom_run.stderr[-3000:])
             raise SystemExit(f"FAIL: chromium exited with {dom_run.returncode}")
@@ -163,7 +201,7 @@ def main():
             os.makedirs(os.path.dirname(out), exist_ok=True)
             shot = subprocess.run(chromium_cmd(chromium, profile + "-shot",
                                                [f"--screenshot={out}", "--window-size=1280,1500"], base + "/"),
-                                  capture_output=True, text=True, timeout=120)
+                                  capture_output=True, text=True, timeout=120 * scale)
             if shot.returncode != 0 or not os.path.exists(out) or os.path.getsize(out) < 10000:
                 print(shot.stderr[-3000:])
                 print("FAIL: no screenshot written")
@@ -174,7 +212,7 @@ def main():
         if server is not None:
             server.send_signal(signal.SIGTERM)
             try:
-                server.wait(timeout=10)
+                server.wait(timeout=10 * scale)
             except subprocess.TimeoutExpired:
                 server.kill()
                 server.wait()

@@ -112,6 +112,7 @@ TEST_CASE("/api/status reports state, counters, camera, recipe and the decoded r
   CHECK(j["counters"]["triggers"] == 7);
   CHECK(j["counters"]["missed"] == 3);
   CHECK(j["counters"]["reconnects"] == 2);
+  CHECK(j["counters"]["grab_timeouts"] == 5);
   CHECK(j["counters"]["latency_ms"]["p50"] == Approx(85.0));
   CHECK(j["recipe"]["number"] == 1);
   CHECK(j["recipe"]["name"] == "mixed 315/400");
@@ -123,7 +124,7 @@ TEST_CASE("/api/status reports state, counters, camera, recipe and the decoded r
   const Json& regs = j["registers"];
   REQUIRE(regs["blocks"].size() == 3);
   const Json& status_rows = regs["blocks"][1]["rows"];
-  REQUIRE(status_rows.size() == 16);
+  REQUIRE(status_rows.size() == 22);  // 100..129: 16 rows, then the six camera fault counters
   CHECK(status_rows[0]["address"] == "100");
   CHECK(status_rows[0]["ref"] == "40101");
   CHECK(status_rows[0]["meaning"] == "Ready, ResultReady, CameraOK");
@@ -131,6 +132,13 @@ TEST_CASE("/api/status reports state, counters, camera, recipe and the decoded r
   for (const auto& row : status_rows)
     if (row["name"] == "test pattern") pattern_ok = row["value"] == "0x12345678" && row["address"] == "110-111";
   CHECK(pattern_ok);
+  bool resent_ok = false, timeouts_ok = false;
+  for (const auto& row : status_rows) {
+    if (row["name"] == "resent packets") resent_ok = row["value"] == "70000" && row["address"] == "128-129";
+    if (row["name"] == "grab timeouts") timeouts_ok = row["value"] == "5" && row["address"] == "120-121";
+  }
+  CHECK(resent_ok);
+  CHECK(timeouts_ok);
   CHECK(regs["blocks"][0]["rows"][0]["meaning"] == "ResultAck");
   REQUIRE(regs["boxes"].size() == f.first().detection.boxes.size());
   CHECK(regs["boxes"][0]["address"] == 210);

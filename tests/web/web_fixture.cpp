@@ -60,6 +60,7 @@ WebFixture::WebFixture(const std::string& frame_stem) {
   health.failures = 0;
   health.frames = 7;
   health.reconnects = 2;
+  health.grab_timeouts = 5;
   health.modbus_port = 1502;
   health.modbus_connections = 1;
 
@@ -101,6 +102,8 @@ modbus::RegisterImage WebFixture::encode(const ResultSnapshot& s, std::uint16_t 
   st.latency_ms = s.latency_ms;
   st.frames_grabbed = 7;
   st.camera_reconnects = 2;
+  st.camera_faults.grab_timeouts = 5;
+  st.camera_faults.resent_packets = 70000;  // needs both words
   modbus::RegisterImage image{};
   modbus::encode_status(st, modbus::WordOrder::kHighWordFirst, image);
   modbus::encode_result(rec, static_cast<std::uint16_t>(s.trigger_seq), modbus::WordOrder::kHighWordFirst, image);

@@ -46,6 +46,7 @@ struct ServiceStatus {
   std::uint16_t acquisition_id = 0;  ///< sequence number of the newest frame (low 16 bits)
   std::uint32_t frames_grabbed = 0;
   std::uint16_t camera_reconnects = 0;
+  CameraFaultCounters camera_faults;   ///< registers 118..129
   bool poses_in_camera_frame = false;  ///< no camera_to_base configured
 };
 

@@ -13,7 +13,7 @@ namespace palletd::modbus {
 inline constexpr std::uint16_t kControlStart = 0;
 inline constexpr std::uint16_t kControlCount = 16;   ///< 0..15, written by the PLC
 inline constexpr std::uint16_t kStatusStart = 100;
-inline constexpr std::uint16_t kStatusCount = 18;    ///< 100..117, read-only
+inline constexpr std::uint16_t kStatusCount = 30;    ///< 100..129, read-only (100..117 until 118..129 were added)
 inline constexpr std::uint16_t kResultStart = 200;
 inline constexpr std::uint16_t kResultHeaderCount = 10;  ///< 200..209
 inline constexpr std::uint16_t kBoxStart = 210;
@@ -47,6 +47,13 @@ inline constexpr std::uint16_t kRegProcessingMs = 113;
 inline constexpr std::uint16_t kRegLatencyMs = 114;
 inline constexpr std::uint16_t kRegFramesGrabbed = 115;  ///< 115-116
 inline constexpr std::uint16_t kRegCameraReconnects = 117;
+// camera fault counters (uint32 each, two registers in the configured word order; wrap at 2^32)
+inline constexpr std::uint16_t kRegIncompleteFrames = 118;  ///< 118-119
+inline constexpr std::uint16_t kRegGrabTimeouts = 120;      ///< 120-121
+inline constexpr std::uint16_t kRegDroppedFrames = 122;     ///< 122-123
+inline constexpr std::uint16_t kRegCameraLosses = 124;      ///< 124-125
+inline constexpr std::uint16_t kRegCameraRestarts = 126;    ///< 126-127
+inline constexpr std::uint16_t kRegResentPackets = 128;     ///< 128-129
 // result block
 inline constexpr std::uint16_t kRegResultId = 200;
 inline constexpr std::uint16_t kRegResultRequestId = 201;
@@ -108,7 +115,7 @@ enum class ResultStatus : std::uint16_t { kOk = 0, kNoBoxes = 1, kFailed = 2 };
 enum class WordOrder : std::uint8_t { kHighWordFirst, kLowWordFirst };
 
 /// The whole addressable register space 0..530 (control, status and result blocks; the gaps
-/// 16..99 and 118..199 read 0).
+/// 16..99 and 130..199 read 0).
 using RegisterImage = std::array<std::uint16_t, kRegisterCount>;
 
 /// One box as the service computed it, in engineering units.
@@ -138,7 +145,23 @@ struct ResultRecord {
   double processing_ms = 0.0;   ///< detection wall time [ms] (register 113)
 };
 
-/// The status block's content in engineering units (what register 100..117 show).
+/// Camera fault counters since the daemon started (registers 118..129), uint32 each.
+struct CameraFaultCounters {
+  std::uint32_t incomplete_frames = 0;  ///< frames refused: missing packets, wrong size or format
+  std::uint32_t grab_timeouts = 0;      ///< grabs that ended without a frame in time
+  std::uint32_t dropped_frames = 0;     ///< frames the camera sent that were lost (no buffer, overrun)
+  std::uint32_t camera_losses = 0;      ///< times the camera was found gone (faulted)
+  std::uint32_t camera_restarts = 0;    ///< stalled trigger-mode camera restarted by the daemon
+  std::uint32_t resent_packets = 0;     ///< GigE Vision packets the camera resent on request
+
+  friend bool operator==(const CameraFaultCounters& a, const CameraFaultCounters& b) {
+    return a.incomplete_frames == b.incomplete_frames && a.grab_timeouts == b.grab_timeouts &&
+           a.dropped_frames == b.dropped_frames && a.camera_losses == b.camera_losses &&
+           a.camera_restarts == b.camera_restarts && a.resent_packets == b.resent_packets;
+  }
+};
+
+/// The status block's content in engineering units (what registers 100..129 show).
 struct StatusRecord {
   std::uint16_t status_word = 0;  ///< kSt* bits
   ErrorCode error = ErrorCode::kNone;
@@ -154,6 +177,7 @@ struct StatusRecord {
   double latency_ms = 0.0;
   std::uint32_t frames_grabbed = 0;
   std::uint16_t camera_reconnects = 0;
+  CameraFaultCounters camera_faults;  ///< 118..129
 };
 
 /// The PLC's control block decoded.
@@ -179,7 +203,7 @@ void put_i32(std::uint16_t* dst, std::int32_t value, WordOrder order);
 std::int32_t get_i32(const std::uint16_t* src, WordOrder order);
 
 // ---- blocks ----
-/// Writes registers 100..117.
+/// Writes registers 100..129.
 void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& image);
 /// Writes registers 200..530 with `result_id` in 200 and 530; unused box slots are zeroed.
 void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
