@@ -36,6 +36,70 @@ double segment_distance(const Eigen::Vector2d& a, const Eigen::Vector2d& b, cons
   return (a + t * d - q).norm();
 }
 
+/// A shape rasterised at a pitch of `pitch_x_m` x `pitch_y_m` as extract_layer sees it: the ring through the border
+/// pixel centres (traced by findContours) and one edge sample per border pixel and off-shape
+/// 4-neighbour, where the outline crosses the step between them (with its border pixel as origin).
+struct Rasterised {
+  std::vector<Eigen::Vector2d> ring, samples, origins;
+};
+
+/// `whole_footprint`: a pixel is on the shape only when its whole footprint is (a ToF pixel at a
+/// depth step mixes top and floor and leaves the band), and a sample may then lie up to two
+/// steps out, where the outline crosses the line through the border pixel and its neighbour.
+template <typename Inside>
+Rasterised rasterise_xy(const Inside& inside, double pitch_x_m, double pitch_y_m, int w, int h,
+                        bool whole_footprint = false) {
+  auto centre = [&](int u, int v) { return Eigen::Vector2d((u - w / 2) * pitch_x_m, (v - h / 2) * pitch_y_m); };
+  auto on = [&](const Eigen::Vector2d& c) {
+    if (!whole_footprint) return inside(c);
+    for (const double dx : {-0.5, 0.5})
+      for (const double dy : {-0.5, 0.5})
+        if (!inside(c + Eigen::Vector2d(dx * pitch_x_m, dy * pitch_y_m))) return false;
+    return true;
+  };
+  cv::Mat mask(h, w, CV_8U, cv::Scalar(0));
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+      if (on(centre(u, v))) mask.at<std::uint8_t>(v, u) = 255;
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  Rasterised r;
+  if (contours.size() != 1) return r;
+  static const int du[4] = {-1, 1, 0, 0};
+  static const int dv[4] = {0, 0, -1, 1};
+  cv::Mat seen(h, w, CV_8U, cv::Scalar(0));
+  for (const cv::Point& p : contours[0]) {
+    if (seen.at<std::uint8_t>(p) != 0) continue;
+    seen.at<std::uint8_t>(p) = 1;
+    const Eigen::Vector2d q = centre(p.x, p.y);
+    r.ring.push_back(q);
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d o = centre(p.x + du[k], p.y + dv[k]);
+      if (on(o)) continue;
+      double lo = 0.0, hi = whole_footprint ? 2.0 : 1.0;
+      if (inside(q + hi * (o - q))) continue;
+      for (int it = 0; it < 40; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (inside(q + mid * (o - q)) ? lo : hi) = mid;
+      }
+      r.samples.push_back(q + lo * (o - q));
+      r.origins.push_back(q);
+    }
+  }
+  return r;
+}
+
+template <typename Inside>
+Rasterised rasterise(const Inside& inside, double pitch_m, int w, int h, bool whole_footprint = false) {
+  return rasterise_xy(inside, pitch_m, pitch_m, w, h, whole_footprint);
+}
+
+std::string describe(const Ring2d& poly) {
+  std::string s;
+  for (const auto& c : poly) s += "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ") ";
+  return s;
+}
+
 }  // namespace
 
 TEST_CASE("simplify: samples beyond foreshortened pixel steps still place the edges") {
@@ -50,37 +114,9 @@ TEST_CASE("simplify: samples beyond foreshortened pixel steps still place the ed
     const Eigen::Vector2d l = R.inverse() * q;
     return std::abs(l.x()) <= 0.1575 && std::abs(l.y()) <= 0.116;
   };
-  const int w = 40, h = 24;
-  auto centre = [&](int u, int v) { return Eigen::Vector2d((u - w / 2) * px, (v - h / 2) * py); };
-  cv::Mat mask(h, w, CV_8U, cv::Scalar(0));
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u)
-      if (inside(centre(u, v))) mask.at<std::uint8_t>(v, u) = 255;
-  std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-  REQUIRE(contours.size() == 1);
-  std::vector<Eigen::Vector2d> ring, samples, origins;
-  static const int du[4] = {-1, 1, 0, 0};
-  static const int dv[4] = {0, 0, -1, 1};
-  cv::Mat seen(h, w, CV_8U, cv::Scalar(0));
-  for (const cv::Point& p : contours[0]) {
-    if (seen.at<std::uint8_t>(p) != 0) continue;
-    seen.at<std::uint8_t>(p) = 1;
-    const Eigen::Vector2d q = centre(p.x, p.y);
-    ring.push_back(q);
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector2d o = centre(p.x + du[k], p.y + dv[k]);
-      if (inside(o)) continue;
-      double lo = 0.0, hi = 1.0;  // the edge crossing on q -> o, by bisection
-      for (int it = 0; it < 40; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (inside(q + mid * (o - q)) ? lo : hi) = mid;
-      }
-      samples.push_back(q + lo * (o - q));
-      origins.push_back(q);
-    }
-  }
-  const Ring2d poly = layer::simplify_ring(ring, samples, py, ContourParams{}, &origins);
+  const Rasterised r = rasterise_xy(inside, px, py, 40, 24);
+  REQUIRE_FALSE(r.ring.empty());
+  const Ring2d poly = layer::simplify_ring(r.ring, r.samples, py, ContourParams{}, &r.origins);
   std::string corners;
   for (const auto& c : poly) corners += "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ") ";
   INFO(corners);
@@ -230,4 +266,112 @@ TEST_CASE("detect() with a workspace gives the plain call's result, frame after 
   const Detection with_rays = detect(a.frame, formats, DetectionParams{}, &rays);
   CHECK(with_rays.status == DetectionStatus::ok);
   CHECK(rays.matches(a.frame.intrinsics));
+}
+
+TEST_CASE("simplify: a small rotated box at a coarse pitch keeps its right-angled corners") {
+  // A 230 x 300 mm box at 16 mm pixels (o3d303 binned at 2.5 m): about 14 x 19 pixels. The
+  // polygon from Douglas-Peucker and per-edge fits blunts a corner here (a short diagonal edge,
+  // or an edge laid along a pixel run); a box's corners are right angles and must come back.
+  const double pitch = 0.016, half_l = 0.15, half_s = 0.115;
+  for (const double yaw : {0.35, 0.95, 1.35}) {  // blunted before rectangles at 0.95 and 1.35
+    const Eigen::Rotation2Dd R(yaw);
+    const Eigen::Vector2d offset(0.003, -0.005);  // not centred on a pixel
+    auto inside = [&](const Eigen::Vector2d& q) {
+      const Eigen::Vector2d l = R.inverse() * (q - offset);
+      return std::abs(l.x()) <= half_l && std::abs(l.y()) <= half_s;
+    };
+    const Rasterised r = rasterise(inside, pitch, 32, 32);
+    REQUIRE(!r.ring.empty());
+    const Ring2d poly = layer::simplify_ring(r.ring, r.samples, pitch, ContourParams{}, &r.origins);
+    INFO("yaw " << yaw << ": " << describe(poly));
+    REQUIRE(poly.size() == 4);
+    for (const Eigen::Vector2d& c : {Eigen::Vector2d(-half_l, -half_s), Eigen::Vector2d(half_l, -half_s),
+                                     Eigen::Vector2d(half_l, half_s), Eigen::Vector2d(-half_l, half_s)})
+      CHECK(nearest(poly, offset + R * c) < 0.25 * pitch);
+    for (std::size_t k = 0; k < 4; ++k) {
+      const Eigen::Vector2d e0 = (poly[(k + 1) % 4] - poly[k]).normalized();
+      const Eigen::Vector2d e1 = (poly[(k + 2) % 4] - poly[(k + 1) % 4]).normalized();
+      CHECK(std::abs(e0.dot(e1)) < 0.02);
+    }
+  }
+}
+
+TEST_CASE("simplify: a corner cut by three pitches stays cut") {
+  // The same box with one corner chamfered 48 mm along each side (3 pitches): a damaged or
+  // chamfered box, not a raster artefact; the outline must not claim the missing corner.
+  const double pitch = 0.016, half_l = 0.15, half_s = 0.115, cut = 3.0 * pitch;
+  for (const double yaw : {0.35, 0.42, 1.1}) {
+    const Eigen::Rotation2Dd R(yaw);
+    auto inside = [&](const Eigen::Vector2d& q) {
+      const Eigen::Vector2d l = R.inverse() * q;
+      return std::abs(l.x()) <= half_l && std::abs(l.y()) <= half_s && (half_l - l.x()) + (half_s - l.y()) >= cut;
+    };
+    const Rasterised r = rasterise(inside, pitch, 32, 32);
+    REQUIRE(!r.ring.empty());
+    const Ring2d poly = layer::simplify_ring(r.ring, r.samples, pitch, ContourParams{}, &r.origins);
+    INFO("yaw " << yaw << ": " << describe(poly));
+    REQUIRE(poly.size() >= 5);
+    const Eigen::Vector2d corner = R * Eigen::Vector2d(half_l, half_s);
+    CHECK(nearest(poly, corner) > 1.5 * pitch);
+    // The cut's two ends are corners of the outline.
+    CHECK(nearest(poly, R * Eigen::Vector2d(half_l - cut, half_s)) < 0.5 * pitch);
+    CHECK(nearest(poly, R * Eigen::Vector2d(half_l, half_s - cut)) < 0.5 * pitch);
+    const double truth_area = 4.0 * half_l * half_s - 0.5 * cut * cut;
+    CHECK(std::abs(signed_area(poly)) == Approx(truth_area).epsilon(0.02));
+  }
+}
+
+TEST_CASE("simplify: a blunted corner of an L comes back, a chamfer of the same size stays") {
+  // An L of two 300 x 230 mm boxes (not a rectangle) at 16 mm pixels. The ring through the
+  // border pixel centres cuts one convex corner with a diagonal 3 pitches along each side. The
+  // edge samples either follow the box edges into the corner (a right-angled corner the raster
+  // blunted: it comes back) or follow the cut (a chamfered corner: it stays).
+  const double pitch = 0.016, cut = 3.0 * pitch;
+  const std::vector<Eigen::Vector2d> l_shape{{0.0, 0.0}, {0.6, 0.0}, {0.6, 0.23}, {0.3, 0.23}, {0.3, 0.46}, {0.0, 0.46}};
+  const std::size_t blunted = 2;  // the corner (0.6, 0.23)
+  const Eigen::Vector2d before = l_shape[blunted] + Eigen::Vector2d(0.0, -cut);
+  const Eigen::Vector2d after = l_shape[blunted] + Eigen::Vector2d(-cut, 0.0);
+  auto walk = [](const std::vector<Eigen::Vector2d>& outline, double step) {
+    std::vector<Eigen::Vector2d> pts;
+    for (std::size_t k = 0; k < outline.size(); ++k) {
+      const Eigen::Vector2d a = outline[k], b = outline[(k + 1) % outline.size()];
+      const int n = std::max(1, static_cast<int>(std::round((b - a).norm() / step)));
+      for (int i = 0; i < n; ++i) pts.push_back(a + (b - a) * (static_cast<double>(i) / n));
+    }
+    return pts;
+  };
+  std::vector<Eigen::Vector2d> cut_outline;
+  for (std::size_t k = 0; k < l_shape.size(); ++k) {
+    if (k != blunted) {
+      cut_outline.push_back(l_shape[k]);
+      continue;
+    }
+    cut_outline.push_back(before);
+    cut_outline.push_back(after);
+  }
+  // The ring (the border pixel centres, here without their staircase) follows the cut.
+  std::vector<Eigen::Vector2d> ring = walk(cut_outline, pitch);
+  for (const double yaw : {0.0, 0.3, 1.0}) {
+    const Eigen::Rotation2Dd R(yaw);
+    std::vector<Eigen::Vector2d> rotated_ring;
+    for (const auto& p : ring) rotated_ring.push_back(R * p);
+    SECTION("a blunted right-angled corner, yaw " + std::to_string(yaw)) {
+      std::vector<Eigen::Vector2d> samples;
+      for (const auto& p : walk(l_shape, 0.5 * pitch)) samples.push_back(R * p);
+      const Ring2d poly = layer::simplify_ring(rotated_ring, samples, pitch, ContourParams{});
+      INFO(describe(poly));
+      CHECK(poly.size() == 6);
+      for (const auto& c : l_shape) CHECK(nearest(poly, R * c) < 0.25 * pitch);
+    }
+    SECTION("a chamfered corner, yaw " + std::to_string(yaw)) {
+      std::vector<Eigen::Vector2d> samples;
+      for (const auto& p : walk(cut_outline, 0.5 * pitch)) samples.push_back(R * p);
+      const Ring2d poly = layer::simplify_ring(rotated_ring, samples, pitch, ContourParams{});
+      INFO(describe(poly));
+      CHECK(poly.size() == 7);
+      CHECK(nearest(poly, R * l_shape[blunted]) > 1.5 * pitch);
+      CHECK(nearest(poly, R * before) < 0.25 * pitch);
+      CHECK(nearest(poly, R * after) < 0.25 * pitch);
+    }
+  }
 }

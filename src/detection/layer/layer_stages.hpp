@@ -167,6 +167,10 @@ std::vector<int> crust_ring(const std::vector<Eigen::Vector2d>& points, const st
 /// per edge to the edge samples (midpoints between layer and off-layer pixels), near-grid edges
 /// snapped to the ring's dominant direction, near-parallel neighbours merged, corners from
 /// intersecting consecutive lines. Orientation as given by the ring.
+/// Right angles the raster blunted come back: a ring whose samples show one rectangle becomes that
+/// rectangle, and two long fitted grid-aligned lines meeting at a near-right angle with one to
+/// three edges between them meet in one corner, when the samples around it agree (a corner cut by
+/// more than about 2.5 pitches along each side, a notch or a step between boxes is kept).
 /// `sample_origins` (optional, one per sample): the border pixel each sample was taken from; a
 /// sample then qualifies for the edges its pixel lies near (within 1.5 pitches), not only those
 /// it lies near itself (samples beyond a foreshortened pixel step lie further from the ring).

@@ -1,5 +1,6 @@
 // Stage 5b: a crust ring simplified to a polygon with reliable corners and fitted edges.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -50,6 +51,12 @@ double rms(const Line& line) {
     sum += d * d;
   }
   return std::sqrt(sum / static_cast<double>(line.samples.size()));
+}
+
+double segment_distance(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& q) {
+  const Eigen::Vector2d d = b - a;
+  const double t = std::clamp((q - a).dot(d) / std::max(d.squaredNorm(), 1e-18), 0.0, 1.0);
+  return (a + t * d - q).norm();
 }
 
 bool intersect(const Line& a, const Line& b, Eigen::Vector2d& out) {
@@ -106,6 +113,165 @@ void drop_short_edges(std::vector<Eigen::Vector2d>& v, double min_len, double me
   }
 }
 
+/// Distance of q to the outline of the rectangle (centre, axis u, half extents h), from inside
+/// or outside.
+double rect_boundary_distance(const Eigen::Vector2d& q, const Eigen::Vector2d& centre, const Eigen::Vector2d& u,
+                              const Eigen::Vector2d& h) {
+  const Eigen::Vector2d rel = q - centre;
+  const double a = std::abs(rel.dot(u)), b = std::abs(rel.x() * u.y() - rel.y() * u.x());
+  const double da = a - h.x(), db = b - h.y();
+  if (da <= 0.0 && db <= 0.0) return std::min(-da, -db);
+  return std::hypot(std::max(da, 0.0), std::max(db, 0.0));
+}
+
+/// One rectangle through the samples, when they show one: sides fitted to the samples along them
+/// (the 2 pitches next to each corner left out) with one common direction. At a coarse pitch the
+/// polygon's corners are blunted or its edges laid along pixel runs; the rectangle's are not.
+/// Accepted only when 98 % of the samples lie within 1.25 pitches of its outline and each corner
+/// within 1.75 pitches of the samples' hull (near a corner seen at a grazing angle the samples
+/// stop more than a pitch short of it): a notch, a step between boxes or a corner cut by more
+/// than 2.5 pitches along each side (a chamfered or damaged box) keeps the polygon.
+/// Orientation: counter-clockwise.
+bool fit_rectangle(const std::vector<Eigen::Vector2d>& samples, double pitch_m, Ring2d& rect) {
+  if (samples.size() < 16) return false;
+  std::vector<cv::Point2f> pts;
+  pts.reserve(samples.size());
+  for (const auto& p : samples) pts.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+  const cv::RotatedRect box = cv::minAreaRect(pts);
+  double theta = static_cast<double>(box.angle) * kPi / 180.0;
+  Eigen::Vector2d centre(static_cast<double>(box.center.x), static_cast<double>(box.center.y));
+  Eigen::Vector2d h(0.5 * static_cast<double>(box.size.width), 0.5 * static_cast<double>(box.size.height));
+  if (std::min(h.x(), h.y()) < 2.0 * pitch_m) return false;
+  const double margin = 2.0 * pitch_m;
+  for (int iteration = 0; iteration < 3; ++iteration) {
+    const Eigen::Vector2d u(std::cos(theta), std::sin(theta)), v(-u.y(), u.x());
+    std::array<Line, 4> sides;  // +u, +v, -u, -v
+    for (std::size_t k = 0; k < 4; ++k) sides[k].dir = (k % 2 == 0) ? v : u;
+    for (const auto& s : samples) {
+      const Eigen::Vector2d rel = s - centre;
+      const double a = rel.dot(u), b = rel.dot(v);
+      const std::array<double, 4> d{std::abs(a - h.x()), std::abs(b - h.y()), std::abs(a + h.x()), std::abs(b + h.y())};
+      const auto k = static_cast<std::size_t>(std::min_element(d.begin(), d.end()) - d.begin());
+      const double along = (k % 2 == 0) ? std::abs(b) : std::abs(a);
+      const double half = (k % 2 == 0) ? h.y() : h.x();
+      if (along > half - margin) continue;
+      sides[k].samples.push_back(s);
+    }
+    double c4 = 0.0, s4 = 0.0;
+    for (auto& side : sides) {
+      if (side.samples.size() < 3) return false;
+      fit(side);
+      const double a = std::atan2(side.dir.y(), side.dir.x());
+      const auto n = static_cast<double>(side.samples.size());
+      c4 += n * std::cos(4.0 * a);
+      s4 += n * std::sin(4.0 * a);
+    }
+    // The grid angle nearest the current one (angles modulo 90 degrees).
+    const double grid = std::atan2(s4, c4) / 4.0;
+    theta = grid + std::round((theta - grid) / (kPi / 2.0)) * (kPi / 2.0);
+    const Eigen::Vector2d u2(std::cos(theta), std::sin(theta)), v2(-u2.y(), u2.x());
+    std::array<double, 4> offset{};
+    for (std::size_t k = 0; k < 4; ++k) {
+      const Eigen::Vector2d axis = (k % 2 == 0) ? u2 : v2;
+      offset[k] = (sides[k].point - centre).dot(axis);  // the mean of its samples
+    }
+    const double a_mid = 0.5 * (offset[0] + offset[2]), b_mid = 0.5 * (offset[1] + offset[3]);
+    centre += a_mid * u2 + b_mid * v2;
+    h = Eigen::Vector2d(0.5 * (offset[0] - offset[2]), 0.5 * (offset[1] - offset[3]));
+    if (std::min(h.x(), h.y()) < 2.0 * pitch_m) return false;
+  }
+  const Eigen::Vector2d u(std::cos(theta), std::sin(theta)), v(-u.y(), u.x());
+  std::size_t off = 0;
+  for (const auto& s : samples)
+    if (std::abs(rect_boundary_distance(s, centre, u, h)) > 1.25 * pitch_m) ++off;
+  if (static_cast<double>(off) > 0.02 * static_cast<double>(samples.size())) return false;
+  std::vector<cv::Point2f> hull;
+  cv::convexHull(pts, hull);
+  rect = {centre + h.x() * u + h.y() * v, centre - h.x() * u + h.y() * v, centre - h.x() * u - h.y() * v,
+          centre + h.x() * u - h.y() * v};
+  for (const auto& c : rect) {
+    const cv::Point2f q(static_cast<float>(c.x()), static_cast<float>(c.y()));
+    if (-cv::pointPolygonTest(hull, q, true) > 1.75 * pitch_m) return false;  // negative outside the hull
+  }
+  return true;
+}
+
+/// Polygon corner k: where lines k-1 and k meet, or the Douglas-Peucker vertex when they meet
+/// far from it (nearly parallel lines).
+Eigen::Vector2d corner_at(const std::vector<Line>& lines, const std::vector<Eigen::Vector2d>& v, std::size_t k,
+                          double far) {
+  const Line& before = lines[(k + lines.size() - 1) % lines.size()];
+  Eigen::Vector2d x;
+  if (intersect(before, lines[k], x) && (x - v[k]).norm() < far) return x;
+  return v[k];
+}
+
+/// Right-angled corners blunted by the raster: two long fitted lines meeting at a near-right
+/// angle with one to three edges between them (a short diagonal cutting the corner, an edge laid
+/// along a pixel run) meet in one corner instead, when the samples there agree: the new corner
+/// lies within 1.75 pitches of the hull of the samples around it, and nearly every sample
+/// around it lies within 1.25 pitches of the two lines. A corner cut by more than 2.5 pitches
+/// along each side (a chamfered or damaged box) or a step between boxes keeps its edges.
+void recover_corners(std::vector<Line>& lines, std::vector<Eigen::Vector2d>& v,
+                     const std::vector<Eigen::Vector2d>& samples, double pitch_m, double far, double grid_rad) {
+  const double max_cos = std::sin(10.0 * kPi / 180.0);
+  // A long line is a fitted edge along the ring's grid; the edges between two of them may be
+  // anything else (short, or off the grid: a pixel run).
+  auto is_long = [&](const Line& l) {
+    if (!l.fitted || l.samples.size() < 5 || l.length < 4.0 * pitch_m) return false;
+    const double a = std::atan2(l.dir.y(), l.dir.x()) - grid_rad;
+    return std::abs(a - std::round(a / (kPi / 2.0)) * (kPi / 2.0)) < 6.0 * kPi / 180.0;
+  };
+  bool changed = true;
+  while (changed && lines.size() > 4) {
+    changed = false;
+    const std::size_t n = lines.size();
+    for (std::size_t i = 0; i < n && !changed; ++i) {
+      if (!is_long(lines[i])) continue;
+      for (std::size_t m = 2; m <= 4 && !changed; ++m) {
+        const std::size_t j = (i + m) % n;
+        if (n - m + 1 < 4 || !is_long(lines[j])) continue;
+        bool short_between = true;
+        for (std::size_t t = 1; t < m; ++t) short_between = short_between && !is_long(lines[(i + t) % n]);
+        if (!short_between || std::abs(lines[i].dir.dot(lines[j].dir)) > max_cos) continue;
+        Eigen::Vector2d x;
+        if (!intersect(lines[i], lines[j], x)) continue;
+        double reach = 0.0;  // how far the replaced corners lie from the new one
+        for (std::size_t t = 1; t <= m; ++t)
+          reach = std::max(reach, (corner_at(lines, v, (i + t) % n, far) - x).norm());
+        if (reach > 5.0 * pitch_m) continue;
+        const double radius = reach + 2.0 * pitch_m;
+        std::vector<cv::Point2f> near;
+        std::size_t off = 0;
+        for (const auto& q : samples) {
+          if ((q - x).norm() > radius) continue;
+          near.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()));
+          const double d_in = segment_distance(x, x - radius * lines[i].dir, q);
+          const double d_out = segment_distance(x, x + radius * lines[j].dir, q);
+          if (std::min(d_in, d_out) > 1.25 * pitch_m) ++off;
+        }
+        if (near.size() < 3 || static_cast<double>(off) > 0.1 * static_cast<double>(near.size())) continue;
+        std::vector<cv::Point2f> hull;
+        cv::convexHull(near, hull);
+        const cv::Point2f xp(static_cast<float>(x.x()), static_cast<float>(x.y()));
+        if (-cv::pointPolygonTest(hull, xp, true) > 1.75 * pitch_m) continue;
+        // Lines i+1 .. j-1 go with their start vertices; line j starts at the new corner.
+        std::vector<Line> kept_lines;
+        std::vector<Eigen::Vector2d> kept_v;
+        for (std::size_t k = 0; k < n; ++k) {
+          const std::size_t from_i = (k + n - i) % n;  // 0 for line i
+          if (from_i >= 1 && from_i < m) continue;
+          kept_lines.push_back(lines[k]);
+          kept_v.push_back(from_i == m ? x : v[k]);
+        }
+        lines = std::move(kept_lines);
+        v = std::move(kept_v);
+        changed = true;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector<Eigen::Vector2d>& samples,
@@ -113,6 +279,11 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
                      const std::vector<Eigen::Vector2d>* sample_origins) {
   if (sample_origins != nullptr && sample_origins->size() != samples.size()) sample_origins = nullptr;
   if (ring.size() < 4) return ring;
+  Ring2d rect;
+  if (fit_rectangle(samples, pitch_m, rect)) {
+    if ((signed_area(ring) < 0.0) != (signed_area(rect) < 0.0)) std::reverse(rect.begin(), rect.end());
+    return rect;
+  }
   const double tol = std::max(params.simplify_tolerance_m, 1e-4);
   const double merge_rad = params.merge_angle_deg * kPi / 180.0;
   // The ring runs through border pixel centres: a straight edge is a staircase whose centres
@@ -209,18 +380,11 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
     }
   }
 
+  const double far = std::max(5.0 * tol, 4.0 * pitch_m);
+  recover_corners(lines, v, samples, pitch_m, far, grid);
   Ring2d out;
   out.reserve(lines.size());
-  const double far = std::max(5.0 * tol, 4.0 * pitch_m);
-  for (std::size_t k = 0; k < lines.size(); ++k) {
-    const Line& before = lines[(k + lines.size() - 1) % lines.size()];
-    Eigen::Vector2d x;
-    if (intersect(before, lines[k], x) && (x - v[k]).norm() < far) {
-      out.push_back(x);
-    } else {
-      out.push_back(v[k]);
-    }
-  }
+  for (std::size_t k = 0; k < lines.size(); ++k) out.push_back(corner_at(lines, v, k, far));
   return out;
 }
 
