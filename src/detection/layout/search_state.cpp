@@ -18,29 +18,35 @@ std::uint64_t ProductSearch::frontier_key(const Node& n, const std::uint64_t* o)
   return h;
 }
 
-bool ProductSearch::range_free(const std::uint64_t* occ, int start, int len) const {
+namespace {
+
+// Calls fn(word, mask) for each 64-bit word the bit range [start, start + len) touches, with the
+// bits of the range inside that word; stops early when fn returns false.
+template <typename Fn>
+bool for_each_range_word(int start, int len, Fn&& fn) {
   int pos = start;
   const int end = start + len;
   while (pos < end) {
     const int w = pos >> 6, b = pos & 63;
     const int n = std::min(64 - b, end - pos);
     const std::uint64_t mask = (n == 64 ? ~std::uint64_t{0} : ((std::uint64_t{1} << n) - 1)) << b;
-    if ((occ[w] & mask) != 0) return false;
+    if (!fn(w, mask)) return false;
     pos += n;
   }
   return true;
 }
 
+}  // namespace
+
+bool ProductSearch::range_free(const std::uint64_t* occ, int start, int len) const {
+  return for_each_range_word(start, len, [occ](int w, std::uint64_t mask) { return (occ[w] & mask) == 0; });
+}
+
 void ProductSearch::set_range(std::uint64_t* occ, int start, int len) {
-  int pos = start;
-  const int end = start + len;
-  while (pos < end) {
-    const int w = pos >> 6, b = pos & 63;
-    const int n = std::min(64 - b, end - pos);
-    const std::uint64_t mask = (n == 64 ? ~std::uint64_t{0} : ((std::uint64_t{1} << n) - 1)) << b;
+  for_each_range_word(start, len, [occ](int w, std::uint64_t mask) {
     occ[w] |= mask;
-    pos += n;
-  }
+    return true;
+  });
 }
 
 bool ProductSearch::fits(const std::uint64_t* occ, int cell, const Placement& p) const {
