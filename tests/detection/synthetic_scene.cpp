@@ -119,6 +119,27 @@ void rebuild_cloud(SynthFrame& f) {
   to_organized_cloud(f.frame, rays, f.cloud);
 }
 
+SynthScene single_box(double long_m, double short_m, double yaw_rad, double top_z_m) {
+  SynthBox b;
+  b.long_m = long_m;
+  b.short_m = short_m;
+  b.yaw_rad = yaw_rad;
+  b.top_z_m = top_z_m;
+  SynthScene s;
+  s.boxes.push_back(b);
+  s.top = {0};
+  s.top_z_m = top_z_m;
+  return s;
+}
+
+SynthCamera camera_looking_at(double look_at_z_m, double tilt_deg, double tilt_azimuth_deg) {
+  SynthCamera cam;
+  cam.tilt_deg = tilt_deg;
+  cam.tilt_azimuth_deg = tilt_azimuth_deg;
+  cam.look_at = Eigen::Vector3d(0, 0, look_at_z_m);
+  return cam;
+}
+
 SynthScene grid_layer(int nx, int ny, double gap_m, double top_z_m, bool with_lower_layer) {
   SynthScene s;
   const double l = 0.315, w = 0.232, h = 0.2;

@@ -57,6 +57,13 @@ struct SynthFrame {
 
 SynthFrame render_synthetic(const SynthScene& scene, const SynthCamera& camera, const SynthNoise& noise);
 
+/// One box (long side along x turned by yaw_rad) standing on the floor, centred on the origin,
+/// its top at top_z_m; the scene's only top-layer box.
+SynthScene single_box(double long_m, double short_m, double yaw_rad, double top_z_m);
+
+/// The default camera looking at (0, 0, look_at_z_m), tilted by tilt_deg toward tilt_azimuth_deg.
+SynthCamera camera_looking_at(double look_at_z_m, double tilt_deg = 0.0, double tilt_azimuth_deg = 0.0);
+
 /// A full layer of nx x ny boxes (long side along x) at top_z on a full lower layer, with gaps.
 SynthScene grid_layer(int nx, int ny, double gap_m, double top_z_m, bool with_lower_layer);
 

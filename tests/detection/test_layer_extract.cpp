@@ -32,10 +32,7 @@ double height_error_m(const LayerResult& r, const Plane& truth) {
 TEST_CASE("full layer on a lower layer: plane and outline match the truth") {
   const SynthScene scene = grid_layer(3, 3, 0.0, 1.0, true);
   for (const double tilt : {0.0, 15.0, 30.0}) {
-    SynthCamera cam;
-    cam.tilt_deg = tilt;
-    cam.tilt_azimuth_deg = 30.0;
-    cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+    const SynthCamera cam = camera_looking_at(1.0, tilt, 30.0);
     const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
     const LayerResult r = run(f);
     INFO("tilt " << tilt << " reason " << r.reason);
@@ -59,9 +56,7 @@ TEST_CASE("a few boxes on a full lower layer: the top is the boxes, not the domi
   few.boxes.push_back(scene.boxes[9]);
   few.top = {1, 2};
   few.top_z_m = 1.0;
-  SynthCamera cam;
-  cam.tilt_deg = 20.0;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthCamera cam = camera_looking_at(1.0, 20.0);
   const SynthFrame f = render_synthetic(few, cam, SynthNoise{});
   const LayerResult r = run(f);
   INFO(r.reason);
@@ -72,17 +67,8 @@ TEST_CASE("a few boxes on a full lower layer: the top is the boxes, not the domi
 }
 
 TEST_CASE("a single box gives four near-orthogonal corners close to the truth") {
-  SynthScene s;
-  SynthBox b;
-  b.yaw_rad = 0.4;
-  b.top_z_m = 1.0;
-  s.boxes.push_back(b);
-  s.top = {0};
-  s.top_z_m = 1.0;
-  SynthCamera cam;
-  cam.tilt_deg = 25.0;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
-  const SynthFrame f = render_synthetic(s, cam, SynthNoise{});
+  const SynthScene s = single_box(0.315, 0.232, 0.4, 1.0);
+  const SynthFrame f = render_synthetic(s, camera_looking_at(1.0, 25.0), SynthNoise{});
   const LayerResult r = run(f);
   REQUIRE(r.status == DetectionStatus::ok);
   REQUIRE(r.polygons.size() == 1);
@@ -104,9 +90,7 @@ TEST_CASE("a single box gives four near-orthogonal corners close to the truth") 
 TEST_CASE("a hole 1.5 pixel pitches wide is found, clusters 30 mm apart stay apart") {
   // Seen from above: in oblique views the side walls inside a narrow gap lie within the band and
   // bridge it (the benchmark's sweep shows the tilted case).
-  SynthCamera cam;
-  cam.tilt_deg = 0.0;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthCamera cam = camera_looking_at(1.0, 0.0);
   // Largest pixel footprint on the layer (tilt stretches it by 1 / cos(tilt)).
   const double pitch_m = cam.distance_m / cam.fx / std::cos(cam.tilt_deg * kPi / 180.0);
   // A ring of 8 boxes around a centre box shrunk so that a gap of 1.5 pitches surrounds it: the
@@ -147,10 +131,7 @@ TEST_CASE("a missing box inside the layer is one hole ring with the box's area")
   for (std::size_t i = 1; i < scene.boxes.size(); ++i) scene.top.push_back(i);
   const double hole_area = (0.315 + 2 * gap) * (0.232 + 2 * gap);
   for (const double tilt : {0.0, 20.0}) {
-    SynthCamera cam;
-    cam.tilt_deg = tilt;
-    cam.tilt_azimuth_deg = 35.0;
-    cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+    const SynthCamera cam = camera_looking_at(1.0, tilt, 35.0);
     const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
     const LayerResult r = run(f);
     INFO("tilt " << tilt << " reason " << r.reason);
@@ -176,10 +157,8 @@ TEST_CASE("clusters at a tilt: apart when the gap shows more than the band below
   // passthrough band, i.e. band x tan(tilt) of the gap look like layer. Where the rest of the gap
   // is at least two pixel footprints wide, the clusters must stay apart; where nothing of the gap
   // is deeper than the band, depth cannot separate them (the layout search splits such a cluster).
-  SynthCamera cam;
-  cam.tilt_deg = 20.0;
-  cam.tilt_azimuth_deg = 0.0;  // looking along the boxes' long axis: the gap's wall faces the camera
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  // Azimuth 0, looking along the boxes' long axis: the gap's wall faces the camera.
+  const SynthCamera cam = camera_looking_at(1.0, 20.0, 0.0);
   const double tan_tilt = std::tan(cam.tilt_deg * kPi / 180.0);
   const double pitch_m = cam.distance_m / cam.fx / std::cos(cam.tilt_deg * kPi / 180.0);
   // Band from a first look at the scene (the detector measures it from the data).
@@ -201,17 +180,8 @@ TEST_CASE("clusters at a tilt: apart when the gap shows more than the band below
 }
 
 TEST_CASE("dropouts inside faces make no border, flying pixels do not bend the outline") {
-  SynthScene s;
-  SynthBox b;
-  b.long_m = 0.6;
-  b.short_m = 0.4;
-  b.top_z_m = 1.0;
-  s.boxes.push_back(b);
-  s.top = {0};
-  s.top_z_m = 1.0;
-  SynthCamera cam;
-  cam.tilt_deg = 10.0;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthScene s = single_box(0.6, 0.4, 0.0, 1.0);
+  const SynthCamera cam = camera_looking_at(1.0, 10.0);
   SynthNoise noise;
   noise.dropout = 0.03;
   noise.flying = 0.8;
@@ -234,9 +204,7 @@ TEST_CASE("dropouts inside faces make no border, flying pixels do not bend the o
 
 TEST_CASE("same frame, same result") {
   const SynthScene scene = grid_layer(2, 2, 0.0, 1.0, true);
-  SynthCamera cam;
-  cam.tilt_deg = 12.0;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthCamera cam = camera_looking_at(1.0, 12.0);
   const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
   const LayerResult a = run(f), b = run(f);
   REQUIRE(a.status == DetectionStatus::ok);
@@ -250,8 +218,7 @@ TEST_CASE("same frame, same result") {
 
 TEST_CASE("bad input ends in a clear status, never a crash") {
   const SynthScene scene = grid_layer(2, 2, 0.0, 1.0, true);
-  SynthCamera cam;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthCamera cam = camera_looking_at(1.0);
 
   SECTION("every pixel invalid") {
     SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
@@ -293,14 +260,7 @@ TEST_CASE("bad input ends in a clear status, never a crash") {
   }
   SECTION("a plane with too few points") {
     // One small box far away on no floor: its top is below the minimum plane area.
-    SynthScene tiny;
-    SynthBox b;
-    b.long_m = 0.08;
-    b.short_m = 0.08;
-    b.top_z_m = 1.0;
-    tiny.boxes.push_back(b);
-    tiny.top = {0};
-    tiny.top_z_m = 1.0;
+    SynthScene tiny = single_box(0.08, 0.08, 0.0, 1.0);
     tiny.floor = false;
     const SynthFrame f = render_synthetic(tiny, cam, SynthNoise{});
     const LayerResult r = run(f);
@@ -332,8 +292,7 @@ TEST_CASE("bad input ends in a clear status, never a crash") {
 
 TEST_CASE("debug pictures: one per stage, frame sized, with something drawn") {
   const SynthScene scene = grid_layer(2, 2, 0.0, 1.0, true);
-  SynthCamera cam;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthCamera cam = camera_looking_at(1.0);
   const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
   LayerTrace trace;
   const LayerResult r = run(f, &trace);

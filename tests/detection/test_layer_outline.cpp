@@ -128,28 +128,17 @@ TEST_CASE("coarse pitch at a tilt: edges facing away from the camera are not pul
   // 176x132 pixels, f = 152 px, 2.5 m: a pitch of 16 mm on the layer (o3d303 binned). One box
   // on a floor a metre below, no noise: the outline must lie within half a pitch of the truth
   // on every side, including the far side whose off-layer pixels see the floor.
-  SynthScene s;
-  SynthBox b;
-  b.long_m = 0.6;
-  b.short_m = 0.4;
-  b.yaw_rad = 0.5;
-  b.top_z_m = 1.0;
-  s.boxes.push_back(b);
-  s.top = {0};
-  s.top_z_m = 1.0;
+  const SynthScene s = single_box(0.6, 0.4, 0.5, 1.0);
   SynthNoise quiet;
   quiet.sigma_m = 0.0;
   quiet.dropout = 0.0;
   quiet.flying = 0.0;
   for (const double azimuth : {0.0, 90.0, 200.0}) {
-    SynthCamera cam;
+    SynthCamera cam = camera_looking_at(1.0, 25.0, azimuth);
     cam.width = 176;
     cam.height = 132;
     cam.fx = cam.fy = 152.0;
     cam.distance_m = 2.5;
-    cam.tilt_deg = 25.0;
-    cam.tilt_azimuth_deg = azimuth;
-    cam.look_at = Eigen::Vector3d(0, 0, 1.0);
     const SynthFrame f = render_synthetic(s, cam, quiet);
     const LayerResult r = run(f);
     INFO("azimuth " << azimuth << " reason " << r.reason);
@@ -177,8 +166,7 @@ TEST_CASE("coarse pitch at a tilt: edges facing away from the camera are not pul
 
 TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a narrow shadow") {
   const SynthScene scene = grid_layer(3, 3, 0.0, 1.0, true);
-  SynthCamera cam;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  const SynthCamera cam = camera_looking_at(1.0);
   const SynthFrame full = render_synthetic(scene, cam, SynthNoise{});
   LayerTrace trace;
   const LayerResult observed = run(full, {}, &trace);

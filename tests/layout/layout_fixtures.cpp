@@ -239,6 +239,55 @@ double match_error(const std::vector<Box2d>& truth, const std::vector<Box2d>& fo
   return worst;
 }
 
+bool inside_by(const Rect2d& r, double margin_m, const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+  return !(lo.x() < r.x0 + margin_m || lo.y() < r.y0 + margin_m || hi.x() > r.x1 - margin_m ||
+           hi.y() > r.y1 - margin_m);
+}
+
+RefineInput packed_block_input(const Rect2d& outline, int cols, int rows, const BoxFormat& nominal,
+                               const Eigen::Vector2d& origin_m, double cell_m,
+                               const std::function<float(const SeamCell&)>& seam_share) {
+  RefineInput in;
+  in.layer.status = DetectionStatus::ok;
+  const Ring2d rectangle{{outline.x0, outline.y0}, {outline.x1, outline.y0}, {outline.x1, outline.y1},
+                         {outline.x0, outline.y1}};
+  in.layer.polygons.push_back(PolygonWithHoles{rectangle, {}});
+  SeamEvidence& ev = in.seams;
+  ev.cell_m = cell_m;
+  ev.origin_m = origin_m;
+  ev.width = static_cast<int>((outline.x1 - outline.x0 + 0.04) / cell_m) + 1;
+  ev.height = static_cast<int>((outline.y1 - outline.y0 + 0.04) / cell_m) + 1;
+  ev.seam.assign(static_cast<std::size_t>(ev.width) * static_cast<std::size_t>(ev.height), 0.f);
+  std::size_t seamy = 0;
+  for (int iy = 0; iy < ev.height; ++iy) {
+    for (int ix = 0; ix < ev.width; ++ix) {
+      const SeamCell cell{{ev.origin_m.x() + ix * cell_m, ev.origin_m.y() + iy * cell_m},
+                          {ev.origin_m.x() + (ix + 0.5) * cell_m, ev.origin_m.y() + (iy + 0.5) * cell_m}};
+      const float v = seam_share(cell);
+      ev.seam[static_cast<std::size_t>(iy) * static_cast<std::size_t>(ev.width) +
+              static_cast<std::size_t>(ix)] = v;
+      if (v > 0.5f) ++seamy;
+    }
+  }
+  ev.strength = static_cast<double>(seamy) / static_cast<double>(ev.seam.size());
+  in.found.status = DetectionStatus::ok;
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      Box2d b;
+      b.center = Eigen::Vector2d(outline.x0 + (c + 0.5) * nominal.long_m,
+                                 outline.y0 + (r + 0.5) * nominal.short_m);
+      b.yaw_rad = 0.0;
+      b.long_m = nominal.long_m;
+      b.short_m = nominal.short_m;
+      b.format = 0;
+      in.found.boxes.push_back(b);
+      in.found.box_component.push_back(0);
+      in.found.box_scores.push_back(1.0);
+    }
+  }
+  return in;
+}
+
 KnownLayout block(int cols, int rows, double long_m, double short_m) {
   KnownLayout l{"block", {{long_m, short_m, "A"}}, {}, 0.0, Eigen::Vector2d::Zero(), 0.0};
   for (int r = 0; r < rows; ++r)

@@ -1,11 +1,14 @@
 // Test and benchmark fixtures for the layout search: known layouts, their exact outlines
-// (union of the boxes), noise, synthetic seam rasters, matching of found boxes to the truth.
+// (union of the boxes), noise, synthetic seam rasters, matching of found boxes to the truth,
+// refinement input around a block of boxes.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "palletd/geometry.hpp"
+#include "palletd/layer.hpp"
 #include "palletd/layout.hpp"
 
 namespace palletd::layout_test {
@@ -41,6 +44,38 @@ std::vector<Eigen::Vector2f> layer_points(const KnownLayout& layout, double pitc
 /// Largest centre error [m] over the truth boxes when every truth box has a found twin with the
 /// same format and orientation (within 2 deg) and the counts match; a negative value otherwise.
 double match_error(const std::vector<Box2d>& truth, const std::vector<Box2d>& found);
+
+/// Axis-aligned rectangle in the layer frame [m].
+struct Rect2d {
+  double x0, y0, x1, y1;
+};
+
+/// Whether the rectangle lo..hi lies at least margin_m inside `r` (build_seam_evidence leaves
+/// the cells that near the outline at zero).
+bool inside_by(const Rect2d& r, double margin_m, const Eigen::Vector2d& lo, const Eigen::Vector2d& hi);
+
+/// A cell of a seam raster: its lower-left corner and its centre, layer frame [m].
+struct SeamCell {
+  Eigen::Vector2d min_m, center_m;
+};
+
+/// What refine_layout is given for a block of boxes.
+struct RefineInput {
+  LayerResult layer;
+  LayoutResult found;
+  SeamEvidence seams;
+};
+
+/// Refinement input for a block of boxes whose layer outline is the rectangle `outline`:
+/// - layer: status ok, `outline` as its one polygon, no layer points (the caller adds them);
+/// - seams: cells of cell_m, cell (0, 0) at origin_m, over `outline` grown by 20 mm on each side;
+///   seam_share(cell) gives each cell's value (0..1), called once per cell, row by row from the
+///   lower left; strength = share of the cells above 0.5;
+/// - found: the search's answer, cols x rows boxes of the nominal format (long side along x,
+///   format 0) packed from the outline's lower-left corner.
+RefineInput packed_block_input(const Rect2d& outline, int cols, int rows, const BoxFormat& nominal,
+                               const Eigen::Vector2d& origin_m, double cell_m,
+                               const std::function<float(const SeamCell&)>& seam_share);
 
 // Layouts used by the tests and the benchmark.
 KnownLayout block(int cols, int rows, double long_m, double short_m);

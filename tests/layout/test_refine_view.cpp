@@ -5,12 +5,15 @@
 // seam-like as soon as its footprint reaches into a gap, except across a side facing the camera.
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include <Eigen/Geometry>
 
 #include "../../src/detection/layout/refine_joint.hpp"
+#include "layout_fixtures.hpp"
 #include "palletd/layout.hpp"
 
 using namespace palletd;
@@ -22,12 +25,12 @@ struct ViewBox {
   double long_m, short_m;  // long side along x, no yaw
 };
 
-struct ViewScene {
+/// The refinement input (layer, seams, the search's answer) with the true boxes.
+struct ViewScene : layout_test::RefineInput {
   std::vector<ViewBox> truth;
-  LayoutResult found;
-  LayerResult layer;
-  SeamEvidence seams;
 };
+
+const std::vector<BoxFormat> kViewFormats{BoxFormat{0.4, 0.3, "400x300"}};
 
 constexpr double kHeight_m = 2.0;  // camera above the layer
 
@@ -77,57 +80,37 @@ ViewScene make_view_block(int cols, int rows, double gap_m, double pitch_m, cons
       by0 = std::min(by0, b.center.y() - b.short_m / 2); by1 = std::max(by1, b.center.y() + b.short_m / 2);
     }
   }
-  s.layer.status = DetectionStatus::ok;
-  s.layer.polygons.push_back(PolygonWithHoles{{{bx0, by0}, {bx1, by0}, {bx1, by1}, {bx0, by1}}, {}});
-  // The camera in the layer frame: T_camera_layer maps layer points into the camera frame.
-  s.layer.T_camera_layer = Eigen::Isometry3d(Eigen::Translation3d(-camera_xy.x(), -camera_xy.y(), -kHeight_m));
   std::vector<std::array<double, 4>> on_layer, not_seam;
   for (const auto& b : s.truth) {
     on_layer.push_back(seen_extent(b, camera_xy, pitch_m, pitch_m / 2, pitch_m / 2));
     not_seam.push_back(seen_extent(b, camera_xy, pitch_m, 0.0, pitch_m / 2));
   }
   const double ox = pitch_m * (u(rng) + 1) / 2, oy = pitch_m * (u(rng) + 1) / 2;
-  SeamEvidence& ev = s.seams;
-  ev.cell_m = pitch_m;
-  ev.origin_m = {bx0 - 0.02 + ox - pitch_m / 2, by0 - 0.02 + oy - pitch_m / 2};  // cell centres on pixel centres
-  ev.width = static_cast<int>((bx1 - bx0 + 0.04) / pitch_m) + 1;
-  ev.height = static_cast<int>((by1 - by0 + 0.04) / pitch_m) + 1;
-  ev.seam.assign(static_cast<std::size_t>(ev.width) * static_cast<std::size_t>(ev.height), 0.f);
-  std::size_t seamy = 0;
-  for (int iy = 0; iy < ev.height; ++iy) {
-    for (int ix = 0; ix < ev.width; ++ix) {
-      const Eigen::Vector2d p(ev.origin_m.x() + (ix + 0.5) * pitch_m, ev.origin_m.y() + (iy + 0.5) * pitch_m);
-      bool layer_point = false, top = false;
-      for (std::size_t i = 0; i < s.truth.size(); ++i) {
-        layer_point = layer_point || inside_seen(s.truth[i], on_layer[i], p);
-        top = top || inside_seen(s.truth[i], not_seam[i], p);
-      }
-      if (layer_point) s.layer.points_2d.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-      // Seams only inside the outline, two cells clear of it (as build_seam_evidence does).
-      if (p.x() < bx0 + 2 * pitch_m || p.y() < by0 + 2 * pitch_m || p.x() > bx1 - 2 * pitch_m || p.y() > by1 - 2 * pitch_m)
-        continue;
-      const float v = top ? 0.f : 1.f;
-      ev.seam[static_cast<std::size_t>(iy) * static_cast<std::size_t>(ev.width) + static_cast<std::size_t>(ix)] = v;
-      if (v > 0.5f) ++seamy;
+  // One pixel per seam cell: cell centres on pixel centres.
+  const Eigen::Vector2d origin_m(bx0 - 0.02 + ox - pitch_m / 2, by0 - 0.02 + oy - pitch_m / 2);
+  const layout_test::Rect2d outline{bx0, by0, bx1, by1};
+  std::vector<Eigen::Vector2f> points;
+  auto seam_share = [&](const layout_test::SeamCell& cell) {
+    const Eigen::Vector2d& p = cell.center_m;
+    bool layer_point = false, top = false;
+    for (std::size_t i = 0; i < s.truth.size(); ++i) {
+      layer_point = layer_point || inside_seen(s.truth[i], on_layer[i], p);
+      top = top || inside_seen(s.truth[i], not_seam[i], p);
     }
-  }
-  ev.strength = static_cast<double>(seamy) / static_cast<double>(ev.seam.size());
-  s.found.status = DetectionStatus::ok;
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      Box2d b;
-      b.center = Eigen::Vector2d(bx0 + (c + 0.5) * L, by0 + (r + 0.5) * S);
-      b.long_m = L;
-      b.short_m = S;
-      s.found.boxes.push_back(b);
-      s.found.box_component.push_back(0);
-      s.found.box_scores.push_back(1.0);
-    }
-  }
+    if (layer_point) points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+    // Seams only inside the outline, two cells clear of it (as build_seam_evidence does).
+    if (!layout_test::inside_by(outline, 2 * pitch_m, p, p)) return 0.f;
+    return top ? 0.f : 1.f;
+  };
+  layout_test::RefineInput& input = s;
+  input =
+      layout_test::packed_block_input(outline, cols, rows, kViewFormats[0], origin_m, pitch_m, seam_share);
+  s.layer.points_2d = std::move(points);
+  // The camera in the layer frame: T_camera_layer maps layer points into the camera frame.
+  s.layer.T_camera_layer =
+      Eigen::Isometry3d(Eigen::Translation3d(-camera_xy.x(), -camera_xy.y(), -kHeight_m));
   return s;
 }
-
-const std::vector<BoxFormat> kViewFormats{BoxFormat{0.4, 0.3, "400x300"}};
 
 /// Mean position error of the refined boxes [m] and the mean offset vector (shared shift).
 std::pair<double, Eigen::Vector2d> refined_error(const ViewScene& s) {
