@@ -86,6 +86,9 @@ struct LayoutParams {
   double min_coverage = 0.8;
   bool refine = true;                  ///< solve_layout: run refine_layout
   double refine_size_tolerance_m = 0.010;  ///< refined sizes stay within nominal +/- this [m]
+  /// Prior spread of a box's own turn against the rest of its layer [deg]; 0 turns all boxes
+  /// of a component together.
+  double refine_yaw_sigma_deg = 0.5;
 };
 
 /// Seam evidence: a raster in the layer frame of how much each spot looks like a gap between

@@ -117,6 +117,7 @@ const Table<LayoutParams>& layout_table() {
       number("min_coverage", &LayoutParams::min_coverage, Range::closed(0.0, 1.0)),
       flag("refine", &LayoutParams::refine),
       number("refine_size_tolerance_m", &LayoutParams::refine_size_tolerance_m, Range::closed(0.0, 0.1)),
+      number("refine_yaw_sigma_deg", &LayoutParams::refine_yaw_sigma_deg, Range::closed(0.0, 10.0)),
   };
   return t;
 }

@@ -5,8 +5,10 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "../../src/detection/layout/refine_joint.hpp"
+#include "layout_fixtures.hpp"
 #include "palletd/layout.hpp"
 
 using namespace palletd;
@@ -29,12 +31,12 @@ struct Patch {
   double x0, y0, x1, y1;
 };
 
-struct Scene {
+/// The refinement input (layer, seams, the search's answer) with the true boxes.
+struct Scene : layout_test::RefineInput {
   std::vector<TrueBox> truth;
-  LayoutResult found;
-  LayerResult layer;
-  SeamEvidence seams;
 };
+
+const std::vector<BoxFormat> kFormats{BoxFormat{0.4, 0.3, "400x300"}};
 
 /// cols x rows boxes of 400 x 300 (long along x). gaps_x[c] is the gap after column c.
 /// The layer outline is the rectangle around all boxes; the search's answer is the nominal
@@ -70,16 +72,15 @@ Scene make_block(int cols, int rows, const std::vector<double>& gaps_x, const st
       by0 = std::min(by0, b.center.y() - ey); by1 = std::max(by1, b.center.y() + ey);
     }
   }
-  s.layer.status = DetectionStatus::ok;
-  s.layer.polygons.push_back(PolygonWithHoles{{{bx0, by0}, {bx1, by0}, {bx1, by1}, {bx0, by1}}, {}});
   // Layer points on a pixel grid (random phase), only on box tops.
+  std::vector<Eigen::Vector2f> points;
   const double ox = pitch_m * (u(rng) + 1) / 2, oy = pitch_m * (u(rng) + 1) / 2;
   for (double py = by0 - 0.01 + oy; py < by1 + 0.01; py += pitch_m) {
     for (double px = bx0 - 0.01 + ox; px < bx1 + 0.01; px += pitch_m) {
       const Eigen::Vector2d p(px, py);
       for (const auto& b : s.truth) {
         if (inside(b, p)) {
-          s.layer.points_2d.emplace_back(static_cast<float>(px), static_cast<float>(py));
+          points.emplace_back(static_cast<float>(px), static_cast<float>(py));
           break;
         }
       }
@@ -87,54 +88,32 @@ Scene make_block(int cols, int rows, const std::vector<double>& gaps_x, const st
   }
   // Seam raster: the share of each cell not covered by a box top (or covered by a patch),
   // zero within two cells of the outline (as build_seam_evidence does).
-  SeamEvidence& ev = s.seams;
-  ev.cell_m = pitch_m;
-  ev.origin_m = {bx0 - 0.02, by0 - 0.02};
-  ev.width = static_cast<int>((bx1 - bx0 + 0.04) / pitch_m) + 1;
-  ev.height = static_cast<int>((by1 - by0 + 0.04) / pitch_m) + 1;
-  ev.seam.assign(static_cast<std::size_t>(ev.width) * static_cast<std::size_t>(ev.height), 0.f);
-  std::size_t seamy = 0;
-  for (int iy = 0; iy < ev.height; ++iy) {
-    for (int ix = 0; ix < ev.width; ++ix) {
-      const double cx0 = ev.origin_m.x() + ix * pitch_m, cy0 = ev.origin_m.y() + iy * pitch_m;
-      if (cx0 < bx0 + 2 * pitch_m || cy0 < by0 + 2 * pitch_m || cx0 + pitch_m > bx1 - 2 * pitch_m ||
-          cy0 + pitch_m > by1 - 2 * pitch_m)
-        continue;
-      int open = 0;
-      for (int sy = 0; sy < 4; ++sy) {
-        for (int sx = 0; sx < 4; ++sx) {
-          const Eigen::Vector2d p(cx0 + (sx + 0.5) * pitch_m / 4, cy0 + (sy + 0.5) * pitch_m / 4);
-          bool top = false;
-          for (const auto& b : s.truth) top = top || inside(b, p);
-          for (const auto& q : patches) top = top && !(p.x() >= q.x0 && p.x() <= q.x1 && p.y() >= q.y0 && p.y() <= q.y1);
-          open += top ? 0 : 1;
-        }
+  const layout_test::Rect2d outline{bx0, by0, bx1, by1};
+  auto seam_share = [&](const layout_test::SeamCell& cell) {
+    const Eigen::Vector2d cell_max_m = cell.min_m + Eigen::Vector2d(pitch_m, pitch_m);
+    if (!layout_test::inside_by(outline, 2 * pitch_m, cell.min_m, cell_max_m)) return 0.f;
+    int open = 0;
+    for (int sy = 0; sy < 4; ++sy) {
+      for (int sx = 0; sx < 4; ++sx) {
+        const Eigen::Vector2d p(cell.min_m.x() + (sx + 0.5) * pitch_m / 4,
+                                cell.min_m.y() + (sy + 0.5) * pitch_m / 4);
+        bool top = false;
+        for (const auto& b : s.truth) top = top || inside(b, p);
+        for (const auto& q : patches)
+          top = top && !(p.x() >= q.x0 && p.x() <= q.x1 && p.y() >= q.y0 && p.y() <= q.y1);
+        open += top ? 0 : 1;
       }
-      const float v = static_cast<float>(open) / 16.f;
-      ev.seam[static_cast<std::size_t>(iy) * static_cast<std::size_t>(ev.width) + static_cast<std::size_t>(ix)] = v;
-      if (v > 0.5f) ++seamy;
     }
-  }
-  ev.strength = static_cast<double>(seamy) / static_cast<double>(ev.seam.size());
-  // The search's answer: nominal boxes packed from the outline's lower-left corner.
-  s.found.status = DetectionStatus::ok;
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      Box2d b;
-      b.center = Eigen::Vector2d(bx0 + (c + 0.5) * L, by0 + (r + 0.5) * S);
-      b.yaw_rad = 0.0;
-      b.long_m = L;
-      b.short_m = S;
-      b.format = 0;
-      s.found.boxes.push_back(b);
-      s.found.box_component.push_back(0);
-      s.found.box_scores.push_back(1.0);
-    }
-  }
+    return static_cast<float>(open) / 16.f;
+  };
+  // Layer, seams and the search's answer (nominal boxes packed from the outline's lower-left
+  // corner); the layer points from above.
+  layout_test::RefineInput& input = s;
+  input = layout_test::packed_block_input(outline, cols, rows, kFormats[0], {bx0 - 0.02, by0 - 0.02}, pitch_m,
+                                          seam_share);
+  s.layer.points_2d = std::move(points);
   return s;
 }
-
-const std::vector<BoxFormat> kFormats{BoxFormat{0.4, 0.3, "400x300"}};
 
 struct Errors {
   double max_pos_m = 0, max_yaw_rad = 0;
@@ -195,6 +174,25 @@ TEST_CASE("refine: per-box yaw follows the sides", "[refine]") {
   CHECK(max_true_yaw > 0.5 * deg);
   CHECK(after.max_yaw_rad < 0.25 * deg);
   CHECK(after.max_pos_m < 0.002);
+}
+
+TEST_CASE("refine: coarse pixels do not turn single boxes (yaw prior)", "[refine]") {
+  // A 15 mm pixel footprint (a 176x132 camera at 2.5 m): each side's slope is only known to
+  // a few tenths of a degree; the boxes are aligned in truth. The prior on a box's own turn
+  // keeps every box closer to the truth than free per-box slopes do.
+  const double deg = M_PI / 180.0;
+  double worst_prior = 0, worst_free = 0;
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    std::mt19937 rng(seed);
+    const Scene s = make_block(3, 2, {0.010, 0.014}, {0.012}, 0.003, 0.002, 0.0, rng, {}, 0.015);
+    LayoutParams params;
+    worst_prior = std::max(worst_prior, errors(s, refine_layout(s.found, s.layer, kFormats, &s.seams, params)).max_yaw_rad);
+    params.refine_yaw_sigma_deg = 10.0;
+    worst_free = std::max(worst_free, errors(s, refine_layout(s.found, s.layer, kFormats, &s.seams, params)).max_yaw_rad);
+  }
+  INFO("worst yaw error with the prior " << worst_prior / deg << " deg, free " << worst_free / deg << " deg");
+  CHECK(worst_prior < 0.25 * deg);
+  CHECK(worst_free > 1.5 * worst_prior);
 }
 
 TEST_CASE("refine: boxes pressed together (no seam) touch their neighbour at nominal size", "[refine]") {

@@ -322,7 +322,11 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
           sides.push_back({static_cast<int>(k), axis, sign, line.offset_m, sigma});
           // x-sides: x = c + h - phi (y - cy); y-sides: y = c + h + phi (x - cx).
           const double phi = axis == 0 ? -line.slope : line.slope;
-          const double w = 1.0 / (line.sigma_slope * line.sigma_slope + 1e-8);
+          // The same pixel-scale bias, of opposite sign at the two ends of the stretch, tilts
+          // the line however many samples there are.
+          const double half_stretch = std::max(0.5 * (s.hi - s.lo), lp);
+          const double sigma_slope = std::hypot(line.sigma_slope, 0.2 * lp / half_stretch);
+          const double w = 1.0 / (sigma_slope * sigma_slope);
           phi_sum[k] += w * phi;
           phi_w[k] += w;
         }
@@ -348,6 +352,17 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     jp.size_tolerance_m = params.refine_size_tolerance_m;
     jp.size_sigma_m = params.refine_size_tolerance_m / 2;
     solve_joint(fitted, sides, contacts, jp);
+    // Yaw: the component turns as a whole by the weighted mean of all side slopes; each box
+    // deviates from that by its own slopes, shrunk towards zero by the prior spread of a real
+    // box's turn in a layer (a few noisy sides must not turn a box by degrees).
+    double phi_all = 0, w_all = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      phi_all += phi_sum[k];
+      w_all += phi_w[k];
+    }
+    const double phi_common = w_all > 0 ? phi_all / w_all : 0.0;
+    const double yaw_sigma_rad = params.refine_yaw_sigma_deg * M_PI / 180.0;
+    const double w_prior = yaw_sigma_rad > 0 ? 1.0 / (yaw_sigma_rad * yaw_sigma_rad) : 1e300;
     for (std::size_t k = 0; k < n; ++k) {
       Box2d& box = out.boxes[idx[k]];
       const Eigen::Vector2d shift = fitted[k].center - jb[k].center;
@@ -356,8 +371,9 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
       const Eigen::Vector2d size = 2 * fitted[k].half;
       box.long_m = along_x[k] ? size.x() : size.y();
       box.short_m = along_x[k] ? size.y() : size.x();
-      if (phi_w[k] > 0) {
-        const double phi = phi_sum[k] / phi_w[k];
+      if (w_all > 0) {
+        const double deviation = (phi_sum[k] - phi_common * phi_w[k]) / (phi_w[k] + w_prior);
+        const double phi = phi_common + deviation;
         if (std::abs(phi) < 5.0 * M_PI / 180.0) box.yaw_rad += phi;
       }
     }
