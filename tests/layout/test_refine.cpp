@@ -195,6 +195,20 @@ TEST_CASE("refine: coarse pixels do not turn single boxes (yaw prior)", "[refine
   CHECK(worst_free > 1.5 * worst_prior);
 }
 
+TEST_CASE("refine: an outline side far beyond the packed box is found at a coarse footprint", "[refine]") {
+  // Two 8 mm gaps put the packed nominal grid's last box 16 mm short of its outline side, and
+  // neither a seam raster nor a break in the points (12 mm footprint) shows them: that side is
+  // the last box's only evidence. The points must be read a gap (2.5 footprints) beyond the
+  // 30 mm window to see where they end.
+  std::mt19937 rng(31);
+  const Scene s = make_block(3, 1, {0.008, 0.008}, {}, 0.0, 0.0, 0.0, rng, {}, 0.012);
+  const Errors before = errors(s, s.found);
+  const Errors after = errors(s, refine_layout(s.found, s.layer, kFormats, nullptr, LayoutParams{}));
+  INFO("before " << before.max_pos_m * 1000 << " mm, after " << after.max_pos_m * 1000 << " mm");
+  CHECK(before.max_pos_m > 0.015);
+  CHECK(after.max_pos_m < 0.005);
+}
+
 TEST_CASE("refine: boxes pressed together (no seam) touch their neighbour at nominal size", "[refine]") {
   std::mt19937 rng(3);
   // Columns 0 and 1 pressed together, a 12 mm seam after column 1; sizes exactly nominal.

@@ -104,8 +104,9 @@ SideRef side_of(const JointBox& b, int axis, int sign, double margin_m) {
 }
 
 /// Outline side: per slice along the side, walk the box's own layer points outward from inside
-/// the box and stop at the first gap (no points over gap_m); the edge is the last point plus
-/// half a pixel. Samples (t, p) in the frame.
+/// the box and stop at the first gap (no points over 2.5 footprints); the edge is the last point
+/// plus half a pixel. The edge may lie up to window_m beyond the current side (points are read
+/// a gap further to see it end). Samples (t, p) in the frame.
 std::vector<Eigen::Vector2d> outline_samples(const SideRef& s, const std::vector<Eigen::Vector2d>& local,
                                              double pitch_m, double window_m, double window_in_m) {
   std::vector<Eigen::Vector2d> out;
@@ -118,18 +119,18 @@ std::vector<Eigen::Vector2d> outline_samples(const SideRef& s, const std::vector
     const double t = q[o];
     if (t < s.lo || t >= s.hi) continue;
     const double u = s.sign * (q[s.axis] - s.pos);  // outward from the current side [m]
-    if (u < -window_in_m || u > window_m) continue;
+    if (u < -window_in_m || u > window_m + gap) continue;
     const auto k = static_cast<std::size_t>(std::min(n - 1, static_cast<int>((t - s.lo) / (s.hi - s.lo) * n)));
     across[k].push_back(u);
   }
   for (std::size_t k = 0; k < across.size(); ++k) {
     auto& v = across[k];
-    if (v.size() < 3) continue;
+    if (v.empty()) continue;
     std::sort(v.begin(), v.end());
     if (v.front() > -window_in_m + gap) continue;  // the slice does not start on the box top
     double edge = v.front();
     for (std::size_t i = 1; i < v.size() && v[i] - edge < gap; ++i) edge = v[i];
-    if (edge > window_m - gap) continue;  // no gap within the window: the edge is not seen here
+    if (edge > window_m) continue;  // the edge is not seen within the window
     const double t = s.lo + (static_cast<double>(k) + 0.5) * (s.hi - s.lo) / n;
     out.emplace_back(t, s.pos + s.sign * (edge + 0.5 * pitch_m));
   }
@@ -168,6 +169,28 @@ std::vector<Eigen::Vector2d> seam_samples(const SideRef& s, const SeamEvidence& 
     }
   }
   return out;
+}
+
+/// Huber weights (times the inverse variances) of side turns around their common turn: a side
+/// whose slope is off by more than two of its sigmas counts less.
+template <typename Turn>
+std::vector<double> huber_turn_weights(const std::vector<Turn>& turns) {
+  std::vector<double> w(turns.size());
+  for (std::size_t i = 0; i < turns.size(); ++i) w[i] = turns[i].weight;
+  for (int it = 0; it < 8; ++it) {
+    double sw = 0, sp = 0;
+    for (std::size_t i = 0; i < turns.size(); ++i) {
+      sw += w[i];
+      sp += w[i] * turns[i].phi_rad;
+    }
+    if (!(sw > 0)) break;
+    const double common = sp / sw;
+    for (std::size_t i = 0; i < turns.size(); ++i) {
+      const double z = std::abs(turns[i].phi_rad - common) * std::sqrt(turns[i].weight);
+      w[i] = turns[i].weight * (z > 2.0 ? 2.0 / z : 1.0);
+    }
+  }
+  return w;
 }
 
 }  // namespace
@@ -241,13 +264,15 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
       }
       jb[k].half = along_x[k] ? Eigen::Vector2d(box.long_m / 2, box.short_m / 2) : Eigen::Vector2d(box.short_m / 2, box.long_m / 2);
       jb[k].half_nominal = along_x[k] ? Eigen::Vector2d(nl / 2, ns / 2) : Eigen::Vector2d(ns / 2, nl / 2);
-      const double reach = jb[k].half.norm() + window;
+      // Points a gap beyond the window: an outline edge is seen where its points end.
+      const double collect = window + 5.0 * pitch;
+      const double reach = jb[k].half.norm() + collect;
       std::size_t inside = 0;
       grid.visit(box.center.x() - reach, box.center.y() - reach, box.center.x() + reach, box.center.y() + reach,
                  [&](const Eigen::Vector2f& p) {
                    const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(p.cast<double>()));
                    const Eigen::Vector2d d = (q - jb[k].center).cwiseAbs();
-                   if (d.x() > jb[k].half.x() + window || d.y() > jb[k].half.y() + window) return;
+                   if (d.x() > jb[k].half.x() + collect || d.y() > jb[k].half.y() + collect) return;
                    local[k].push_back(q);
                    if (d.x() < jb[k].half.x() - window && d.y() < jb[k].half.y() - window) ++inside;
                  });
@@ -258,7 +283,11 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     std::vector<Contact> contacts;
     // unseen[k][axis][side]: a side with layer beyond it where no seam was measured.
     std::vector<std::array<std::array<bool, 2>, 2>> unseen(n);
-    std::vector<double> phi_sum(n, 0.0), phi_w(n, 0.0);
+    struct SideTurn {
+      std::size_t box;
+      double phi_rad, weight;  ///< the side's turn of its box and 1 / variance
+    };
+    std::vector<SideTurn> turns;
     for (std::size_t k = 0; k < n; ++k) {
       const double lp = local_pitch[k];
       for (int axis = 0; axis < 2; ++axis) {
@@ -327,8 +356,7 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
           const double half_stretch = std::max(0.5 * (s.hi - s.lo), lp);
           const double sigma_slope = std::hypot(line.sigma_slope, 0.2 * lp / half_stretch);
           const double w = 1.0 / (sigma_slope * sigma_slope);
-          phi_sum[k] += w * phi;
-          phi_w[k] += w;
+          turns.push_back({k, phi, w});
         }
       }
     }
@@ -352,13 +380,17 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     jp.size_tolerance_m = params.refine_size_tolerance_m;
     jp.size_sigma_m = params.refine_size_tolerance_m / 2;
     solve_joint(fitted, sides, contacts, jp);
-    // Yaw: the component turns as a whole by the weighted mean of all side slopes; each box
-    // deviates from that by its own slopes, shrunk towards zero by the prior spread of a real
-    // box's turn in a layer (a few noisy sides must not turn a box by degrees).
+    // Yaw: the component turns as a whole by the robust (Huber) weighted mean of all side
+    // slopes; each box deviates from that by its own slopes, shrunk towards zero by the prior
+    // spread of a real box's turn in a layer (a few noisy sides must not turn a box by degrees).
+    const std::vector<double> turn_weight = huber_turn_weights(turns);
+    std::vector<double> phi_sum(n, 0.0), phi_w(n, 0.0);
     double phi_all = 0, w_all = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-      phi_all += phi_sum[k];
-      w_all += phi_w[k];
+    for (std::size_t i = 0; i < turns.size(); ++i) {
+      phi_sum[turns[i].box] += turn_weight[i] * turns[i].phi_rad;
+      phi_w[turns[i].box] += turn_weight[i];
+      phi_all += turn_weight[i] * turns[i].phi_rad;
+      w_all += turn_weight[i];
     }
     const double phi_common = w_all > 0 ? phi_all / w_all : 0.0;
     const double yaw_sigma_rad = params.refine_yaw_sigma_deg * M_PI / 180.0;
