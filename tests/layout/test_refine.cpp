@@ -261,3 +261,28 @@ TEST_CASE("refine: joint solve chains a pressed row to its measured ends", "[ref
   CHECK(boxes[2].center.x() == Approx(1.003).margin(0.0005));
   CHECK(boxes[1].half.x() == Approx(0.2).margin(0.0005));
 }
+
+TEST_CASE("refine: joint solve keeps solid neighbours from overlapping", "[refine]") {
+  using namespace layout_detail;
+  // Two boxes in a row, all four sides measured; box 0's right side is misread 15 mm into
+  // box 1 (a seam band beyond the real seam), loosely. Alone, the fit lets box 0 reach into
+  // box 1; as neighbours, box 0 stops where box 1's well-measured side is.
+  std::vector<JointBox> boxes(2);
+  for (int i = 0; i < 2; ++i) {
+    boxes[static_cast<std::size_t>(i)].center = Eigen::Vector2d(0.2 + 0.405 * i, 0.15);
+    boxes[static_cast<std::size_t>(i)].half = boxes[static_cast<std::size_t>(i)].half_nominal = Eigen::Vector2d(0.2, 0.15);
+  }
+  const std::vector<SideObservation> sides{
+      {0, 0, -1, 0.0, 0.0005}, {0, 0, 1, 0.420, 0.003}, {1, 0, -1, 0.405, 0.0005}, {1, 0, 1, 0.805, 0.0005}};
+  const std::vector<Contact> neighbours{{0, 1, 0, 0.001}};
+  auto gap_m = [](const std::vector<JointBox>& b) { return (b[1].center.x() - b[1].half.x()) - (b[0].center.x() + b[0].half.x()); };
+  std::vector<JointBox> alone = boxes, solid = boxes;
+  solve_joint(alone, sides, {}, JointParams{});
+  solve_joint(solid, sides, {}, JointParams{}, neighbours);
+  INFO("gap alone " << gap_m(alone) * 1000 << " mm, as neighbours " << gap_m(solid) * 1000 << " mm");
+  CHECK(gap_m(alone) < -0.005);
+  CHECK(gap_m(solid) > -0.0005);
+  // The well-measured box keeps (nearly) its place: box 0's misread side gives way.
+  CHECK(solid[1].center.x() == Approx(0.605).margin(0.002));
+  CHECK(solid[0].center.x() + solid[0].half.x() < alone[0].center.x() + alone[0].half.x() - 0.002);
+}

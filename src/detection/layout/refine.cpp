@@ -280,7 +280,7 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
       if (inside > 50) local_pitch[k] = std::sqrt(inner_area / static_cast<double>(inside));
     }
     std::vector<SideObservation> sides;
-    std::vector<Contact> contacts;
+    std::vector<Contact> contacts, neighbours;
     // unseen[k][axis][side]: a side with layer beyond it where no seam was measured.
     std::vector<std::array<std::array<bool, 2>, 2>> unseen(n);
     struct SideTurn {
@@ -360,7 +360,8 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
         }
       }
     }
-    // Neighbours pressed together (no seam seen on either side): they touch.
+    // Neighbours pressed together (no seam seen on either side): they touch. Every adjacent
+    // pair: solid boxes do not overlap.
     for (std::size_t a = 0; a < n; ++a) {
       for (std::size_t bj = 0; bj < n; ++bj) {
         if (a == bj) continue;
@@ -370,8 +371,10 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
           const double overlap = std::min(jb[a].center[o] + jb[a].half[o], jb[bj].center[o] + jb[bj].half[o]) -
                                  std::max(jb[a].center[o] - jb[a].half[o], jb[bj].center[o] - jb[bj].half[o]);
           if (std::abs(pb - pa) > 2 * m || overlap < 2 * m) continue;
+          const double sigma = 0.5 * std::min(local_pitch[a], local_pitch[bj]);
+          neighbours.push_back({static_cast<int>(a), static_cast<int>(bj), axis, sigma});
           if (!unseen[a][static_cast<std::size_t>(axis)][1] || !unseen[bj][static_cast<std::size_t>(axis)][0]) continue;
-          contacts.push_back({static_cast<int>(a), static_cast<int>(bj), axis, 0.5 * std::min(local_pitch[a], local_pitch[bj])});
+          contacts.push_back({static_cast<int>(a), static_cast<int>(bj), axis, sigma});
         }
       }
     }
@@ -379,7 +382,7 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     JointParams jp;
     jp.size_tolerance_m = params.refine_size_tolerance_m;
     jp.size_sigma_m = params.refine_size_tolerance_m / 2;
-    solve_joint(fitted, sides, contacts, jp);
+    solve_joint(fitted, sides, contacts, jp, neighbours);
     // Yaw: the component turns as a whole by the robust (Huber) weighted mean of all side
     // slopes; each box deviates from that by its own slopes, shrunk towards zero by the prior
     // spread of a real box's turn in a layer (a few noisy sides must not turn a box by degrees).

@@ -100,9 +100,13 @@ double seam_footprint_correction(double view_slope, double pitch_m, double drop_
 
 namespace {
 
+/// How closely a pair of overlapping neighbours is made to touch [m].
+constexpr double kSolid_m = 1e-4;
+
 /// One axis of the joint fit: unknowns c_0..c_{n-1}, h_0..h_{n-1} (centre and half size).
 void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
-                const std::vector<Contact>& contacts, const JointParams& params, int axis) {
+                const std::vector<Contact>& contacts, const std::vector<Contact>& neighbours,
+                const JointParams& params, int axis) {
   const auto n = static_cast<Eigen::Index>(boxes.size());
   if (n == 0) return;
   std::vector<double> robust(sides.size(), 1.0);
@@ -112,10 +116,11 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
   const double half_sigma = 0.5 * params.size_sigma_m;
   const double c_size = 1.0 / (half_sigma * half_sigma);
   const double c_held = 1e12;
+  std::vector<bool> pressed(neighbours.size(), false);  // overlapping neighbours made to touch
   std::vector<double> c0(boxes.size());
   for (std::size_t i = 0; i < boxes.size(); ++i) c0[i] = boxes[i].center[axis];
   Eigen::VectorXd x(2 * n);
-  for (int round = 0; round < 6; ++round) {
+  for (int round = 0; round < 12; ++round) {
     Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * n, 2 * n);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(2 * n);
     for (Eigen::Index i = 0; i < n; ++i) {
@@ -138,14 +143,19 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
       rhs(ic) += w * s.pos_m;
       rhs(ih) += w * sg * s.pos_m;
     }
-    for (const Contact& c : contacts) {
-      if (c.axis != axis) continue;
+    auto add_contact = [&](const Contact& c, double sigma_m) {
       // (c_b - h_b) - (c_a + h_a) = 0: coefficients on c_a, h_a, c_b, h_b
       const Eigen::Index idx[4] = {c.a, n + c.a, c.b, n + c.b};
       const double coef[4] = {-1.0, -1.0, 1.0, -1.0};
-      const double w = 1.0 / (c.sigma_m * c.sigma_m);
+      const double w = 1.0 / (sigma_m * sigma_m);
       for (int p = 0; p < 4; ++p)
         for (int q = 0; q < 4; ++q) A(idx[p], idx[q]) += w * coef[p] * coef[q];
+    };
+    for (const Contact& c : contacts) {
+      if (c.axis == axis) add_contact(c, c.sigma_m);
+    }
+    for (std::size_t k = 0; k < neighbours.size(); ++k) {
+      if (pressed[k]) add_contact(neighbours[k], kSolid_m);
     }
     x = A.ldlt().solve(rhs);
     if (!x.allFinite()) return;
@@ -159,6 +169,16 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
       const double w = z > 3.0 ? 3.0 / z : 1.0;
       if (std::abs(w - robust[k]) > 0.05) changed = true;
       robust[k] = w;
+    }
+    // Solid boxes: a neighbour pair that overlaps by more than a fraction of its sigma touches.
+    for (std::size_t k = 0; k < neighbours.size(); ++k) {
+      const Contact& c = neighbours[k];
+      if (c.axis != axis || pressed[k]) continue;
+      const double gap = (x(c.b) - x(n + c.b)) - (x(c.a) + x(n + c.a));
+      if (gap < -0.5 * c.sigma_m) {
+        pressed[k] = true;
+        changed = true;
+      }
     }
     // Sizes outside the tolerance are held at its bound.
     for (Eigen::Index i = 0; i < n; ++i) {
@@ -184,9 +204,10 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
 }  // namespace
 
 void solve_joint(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
-                 const std::vector<Contact>& contacts, const JointParams& params) {
-  solve_axis(boxes, sides, contacts, params, 0);
-  solve_axis(boxes, sides, contacts, params, 1);
+                 const std::vector<Contact>& contacts, const JointParams& params,
+                 const std::vector<Contact>& neighbours) {
+  solve_axis(boxes, sides, contacts, neighbours, params, 0);
+  solve_axis(boxes, sides, contacts, neighbours, params, 1);
 }
 
 }  // namespace palletd::layout_detail

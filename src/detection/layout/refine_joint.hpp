@@ -80,8 +80,11 @@ struct JointParams {
 
 /// Fits every box centre and half size along both frame axes to the side observations,
 /// contacts and priors (linear least squares, Huber-reweighted side observations; sizes
-/// clamped to the tolerance and the fit repeated with clamped sizes held).
+/// clamped to the tolerance and the fit repeated with clamped sizes held). `neighbours` are
+/// facing sides of adjacent boxes (same layout as Contact): boxes are solid, so where the fit
+/// makes such a pair overlap, the pair is made to touch instead and the fit repeated.
 void solve_joint(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
-                 const std::vector<Contact>& contacts, const JointParams& params);
+                 const std::vector<Contact>& contacts, const JointParams& params,
+                 const std::vector<Contact>& neighbours = {});
 
 }  // namespace palletd::layout_detail
