@@ -13,6 +13,9 @@ namespace palletd::layer {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+/// Farthest a corner moves from its vertex to the crossing of its two long lines [pitches]:
+/// beyond it the crossing is no blunted corner but a missing piece the samples would show.
+constexpr double kMaxCornerPull = 10.0;
 
 struct Line {
   Eigen::Vector2d point = Eigen::Vector2d::Zero();
@@ -212,6 +215,9 @@ Eigen::Vector2d corner_at(const std::vector<Line>& lines, const std::vector<Eige
 /// lies within 1.75 pitches of the hull of the samples around it, and nearly every sample
 /// around it lies within 1.25 pitches of the two lines. A corner cut by more than 2.5 pitches
 /// along each side (a chamfered or damaged box) or a step between boxes keeps its edges.
+/// Two consecutive long lines whose crossing lies too far from their vertex for corner_at (the
+/// short cut merged into one of them) meet at the crossing under the same test, up to
+/// kMaxCornerPull pitches away.
 void recover_corners(std::vector<Line>& lines, std::vector<Eigen::Vector2d>& v,
                      const std::vector<Eigen::Vector2d>& samples, double pitch_m, double far, double grid_rad) {
   const double max_cos = std::sin(10.0 * kPi / 180.0);
@@ -228,7 +234,7 @@ void recover_corners(std::vector<Line>& lines, std::vector<Eigen::Vector2d>& v,
     const std::size_t n = lines.size();
     for (std::size_t i = 0; i < n && !changed; ++i) {
       if (!is_long(lines[i])) continue;
-      for (std::size_t m = 2; m <= 4 && !changed; ++m) {
+      for (std::size_t m = 1; m <= 4 && !changed; ++m) {
         const std::size_t j = (i + m) % n;
         if (n - m + 1 < 4 || !is_long(lines[j])) continue;
         bool short_between = true;
@@ -239,7 +245,11 @@ void recover_corners(std::vector<Line>& lines, std::vector<Eigen::Vector2d>& v,
         double reach = 0.0;  // how far the replaced corners lie from the new one
         for (std::size_t t = 1; t <= m; ++t)
           reach = std::max(reach, (corner_at(lines, v, (i + t) % n, far) - x).norm());
-        if (reach > 5.0 * pitch_m) continue;
+        // m = 1: two long lines already consecutive whose corner fell back to the vertex (their
+        // crossing lies farther than `far` from it: a blunted corner whose short edge merged
+        // into a long one). No edge is dropped, only the corner moves: the samples decide.
+        if (m == 1 && reach <= 1e-9) continue;  // the lines already meet at their crossing
+        if (reach > (m == 1 ? kMaxCornerPull : 5.0) * pitch_m) continue;
         const double radius = reach + 2.0 * pitch_m;
         std::vector<cv::Point2f> near;
         std::size_t off = 0;
@@ -367,8 +377,18 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
       const bool evidence = (lines[k].samples.size() >= 3 && lines[j].samples.size() >= 3) ||
                             std::min(lines[k].length, lines[j].length) < std::max(6.0 * pitch_m, 4.0 * tol);
       const bool one_line = evidence && m.samples.size() >= 6 && rms(m) <= 0.5 * tol;
+      // Offset across the ring's grid axis when both lie near it (the merged line is snapped
+      // onto it): a short piece's fitted direction is the least certain, and measured across
+      // it a piece in line with its neighbour seems offset. Off the grid: across line k.
+      Eigen::Vector2d ref = lines[k].dir;
+      {
+        const double a = std::atan2(ref.y(), ref.x());
+        const double axis = grid + std::round((a - grid) / (kPi / 2.0)) * (kPi / 2.0);
+        const Eigen::Vector2d g(std::cos(axis), std::sin(axis));
+        if (angle_between_dirs(g, lines[k].dir) < merge_rad && angle_between_dirs(g, lines[j].dir) < merge_rad) ref = g;
+      }
       const Eigen::Vector2d offset = lines[j].point - lines[k].point;
-      const double lateral = std::abs(offset.x() * lines[k].dir.y() - offset.y() * lines[k].dir.x());
+      const double lateral = std::abs(offset.x() * ref.y() - offset.y() * ref.x());
       const bool parallel = angle_between_dirs(lines[k].dir, lines[j].dir) < merge_rad && lateral <= 2.0 * tol;
       if (!one_line && !parallel) continue;
       snap(m);
