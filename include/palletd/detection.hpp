@@ -55,6 +55,10 @@ struct Detection {
   bool ambiguous = false;
   bool budget_exhausted = false;
   bool clipped_by_image_border = false;
+  /// A large part of the layer's outline runs along pixels without depth (beyond the sensor's
+  /// range, a dark or shiny surface): the outline there is where the depth ends; `message`
+  /// says so even when status is ok.
+  bool outline_unobserved = false;
   std::vector<DetectedBox> boxes;
   LayerResult layer;  ///< the first half's result, for overlays and diagnostics
 };

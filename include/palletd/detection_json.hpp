@@ -16,7 +16,7 @@ namespace palletd {
 
 /// The JSON Lines record of one frame, without a trailing newline:
 /// frame, status, message, timing_ms{total, ...}, layer{plane, area_m2, coverage}, ambiguous,
-/// budget_exhausted, clipped_by_image_border,
+/// budget_exhausted, clipped_by_image_border, outline_unobserved,
 /// boxes[{center, long_axis, normal, size, format, score, base{position, yaw_deg}?, pick_index}].
 std::string detection_to_json_line(const Detection& detection, const std::string& frame_stem);
 

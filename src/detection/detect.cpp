@@ -96,6 +96,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.timing_ms["contour"] = diag.t_contour_ms;
   out.plane_camera = out.layer.plane_camera;
   out.clipped_by_image_border = diag.touches_image_border;
+  out.outline_unobserved = diag.outline_along_invalid;
   for (const auto& polygon : out.layer.polygons) out.layer_area_m2 += area(polygon);
   if (out.layer.status != DetectionStatus::ok) return finish(out.layer.status, out.layer.reason);
 
@@ -111,7 +112,8 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   // Stage 8: poses in the camera and base frames, pick order.
   out.boxes = to_detected_boxes(layout.boxes, layout.box_scores, out.layer.T_camera_layer, frame.T_base_camera,
                                 params.pick_order);
-  return finish(DetectionStatus::ok, "");
+  // The layer's warnings (an outline along invalid depth) stay with a successful frame.
+  return finish(DetectionStatus::ok, out.layer.reason);
 }
 
 }  // namespace palletd

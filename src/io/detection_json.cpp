@@ -35,6 +35,7 @@ std::string detection_to_json_line(const Detection& detection, const std::string
   j["ambiguous"] = detection.ambiguous;
   j["budget_exhausted"] = detection.budget_exhausted;
   j["clipped_by_image_border"] = detection.clipped_by_image_border;
+  j["outline_unobserved"] = detection.outline_unobserved;
   Json boxes = Json::array();
   for (const DetectedBox& b : detection.boxes) {
     Json box;

@@ -198,6 +198,13 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
     CHECK(r.diagnostics.unobserved_outline_fraction > 0.15);
     CHECK(r.diagnostics.outline_along_invalid);
     CHECK(r.reason.find("without depth") != std::string::npos);
+    // The whole pipeline keeps the warning with its result.
+    const Detection d = detect(f.frame, {BoxFormat{0.315, 0.232, "315x232"}}, DetectionParams{});
+    CHECK(d.outline_unobserved);
+    CHECK(d.message.find("without depth") != std::string::npos);
+    const Detection d_full = detect(full.frame, {BoxFormat{0.315, 0.232, "315x232"}}, DetectionParams{});
+    CHECK_FALSE(d_full.outline_unobserved);
+    CHECK(d_full.message.empty());
     LayerParams strict;
     strict.reject_unobserved = true;
     const LayerResult rejected = run(f, strict);

@@ -59,6 +59,10 @@ TEST_CASE("detection line has the keys of the spec in order") {
   CHECK(j["layer"]["plane"] == nlohmann::ordered_json({0.0, 0.0, -1.0, 1.42}));
   CHECK(j["layer"]["coverage"] == 0.98);
   CHECK(j["ambiguous"] == true);
+  CHECK(j["outline_unobserved"] == false);
+  Detection unobserved = sample_detection();
+  unobserved.outline_unobserved = true;
+  CHECK(nlohmann::json::parse(detection_to_json_line(unobserved, "f"))["outline_unobserved"] == true);
   REQUIRE(j["boxes"].size() == 2);
   CHECK(j["boxes"][0]["size"] == nlohmann::ordered_json({0.315, 0.232}));
   CHECK(j["boxes"][0]["format"] == 1);
