@@ -361,6 +361,12 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
   };
   for (auto& line : lines) snap(line);
 
+  // Line b parallel to line a and in line with it (no step between them) [lateral in m].
+  auto in_line = [&](const Line& a, const Line& b) {
+    if (angle_between_dirs(a.dir, b.dir) >= merge_rad) return false;
+    const Eigen::Vector2d offset = b.point - a.point;
+    return std::abs(offset.x() * a.dir.y() - offset.y() * a.dir.x()) <= 2.0 * tol;
+  };
   // Merge consecutive near-parallel lines (a split that is no corner).
   bool merged = true;
   while (merged && lines.size() > 3) {
@@ -391,6 +397,17 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
       const double lateral = std::abs(offset.x() * ref.y() - offset.y() * ref.x());
       const bool parallel = angle_between_dirs(lines[k].dir, lines[j].dir) < merge_rad && lateral <= 2.0 * tol;
       if (!one_line && !parallel) continue;
+      // A short piece across its neighbour but in line with the line on its other side is the
+      // start of that side (Douglas-Peucker cut the side at a kink of the ring): it joins that
+      // side. Merged across the corner, its few samples hardly raise the union's rms, but the
+      // corner would stay at the piece's far end.
+      if (!parallel && lines.size() > 4) {
+        const Line& after = lines[(j + 1) % lines.size()];
+        const Line& before = lines[(k + lines.size() - 1) % lines.size()];
+        if ((lines[j].length < lines[k].length && in_line(lines[j], after)) ||
+            (lines[k].length < lines[j].length && in_line(lines[k], before)))
+          continue;
+      }
       snap(m);
       lines[k] = m;
       lines.erase(lines.begin() + static_cast<std::ptrdiff_t>(j));
