@@ -286,3 +286,30 @@ TEST_CASE("refine: joint solve keeps solid neighbours from overlapping", "[refin
   CHECK(solid[1].center.x() == Approx(0.605).margin(0.002));
   CHECK(solid[0].center.x() + solid[0].half.x() < alone[0].center.x() + alone[0].half.x() - 0.002);
 }
+
+TEST_CASE("refine: a component without evidence of its own turns to its layer's orientation", "[refine]") {
+  // A 3x2 block and, 1.5 m away, a lone box of the same aligned layer whose outline the search
+  // read 1.5 deg off and whose points are lost (no side can be measured): separate components
+  // stand on one pallet pattern, so it takes the block's measured orientation.
+  const double deg = M_PI / 180.0;
+  std::mt19937 rng(4);
+  Scene s = make_block(3, 2, {0.010, 0.010}, {0.010}, 0.002, 0.0, 0.0, rng, {}, 0.005);
+  const Scene lone = make_block(1, 1, {}, {}, 0.0, 0.0, 0.0, rng, {}, 0.005);
+  const Eigen::Vector2d offset(1.5, 0.0);
+  s.layer.polygons.push_back(lone.layer.polygons.front());
+  for (auto& v : s.layer.polygons.back().outer) v += offset;
+  Box2d b = lone.found.boxes.front();
+  b.center += offset;
+  b.yaw_rad += 1.5 * deg;
+  s.found.boxes.push_back(b);
+  s.found.box_scores.push_back(lone.found.box_scores.front());
+  s.found.box_component.push_back(1);
+  const LayoutResult r = refine_layout(s.found, s.layer, kFormats, &s.seams, LayoutParams{});
+  REQUIRE(r.boxes.size() == 7);
+  const double lone_error = std::abs(std::remainder(r.boxes.back().yaw_rad, M_PI / 2));
+  INFO("lone box yaw error " << lone_error / deg << " deg (search 1.5 deg)");
+  CHECK(lone_error < 0.1 * deg);
+  // The block itself keeps its own (right) orientation.
+  for (std::size_t i = 0; i + 1 < r.boxes.size(); ++i)
+    CHECK(std::abs(std::remainder(r.boxes[i].yaw_rad, M_PI / 2)) < 0.1 * deg);
+}

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 #include "layout_internal.hpp"
 #include "layout_scoring.hpp"
@@ -214,6 +215,8 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
   // the pixel footprint (refine_joint.hpp). Unknown (no camera above the plane): no correction.
   const Eigen::Vector3d camera_layer = layer.T_camera_layer.inverse().translation();
   const bool view_known = camera_layer.z() > 0.1;
+  const double yaw_sigma_rad = params.refine_yaw_sigma_deg * M_PI / 180.0;
+  const double w_prior = yaw_sigma_rad > 0 ? 1.0 / (yaw_sigma_rad * yaw_sigma_rad) : 1e300;
 
   struct ComponentFrame {
     bool built = false;
@@ -222,6 +225,10 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     SeamTable table;
   };
   std::vector<ComponentFrame> frames(layer.polygons.size());
+  // Each component's measured orientation (its frame plus its common turn) and the weight of
+  // that measurement; each refined box's own turn against its component (NaN: not refined).
+  std::vector<double> comp_turn(layer.polygons.size(), 0.0), comp_w(layer.polygons.size(), 0.0);
+  std::vector<double> box_turn(out.boxes.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<std::vector<std::size_t>> members(layer.polygons.size());
   for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
     const auto ci = static_cast<std::size_t>(found.box_component[bi]);
@@ -396,8 +403,8 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
       w_all += turn_weight[i];
     }
     const double phi_common = w_all > 0 ? phi_all / w_all : 0.0;
-    const double yaw_sigma_rad = params.refine_yaw_sigma_deg * M_PI / 180.0;
-    const double w_prior = yaw_sigma_rad > 0 ? 1.0 / (yaw_sigma_rad * yaw_sigma_rad) : 1e300;
+    comp_turn[ci] = theta + phi_common;
+    comp_w[ci] = w_all;
     for (std::size_t k = 0; k < n; ++k) {
       Box2d& box = out.boxes[idx[k]];
       const Eigen::Vector2d shift = fitted[k].center - jb[k].center;
@@ -406,12 +413,27 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
       const Eigen::Vector2d size = 2 * fitted[k].half;
       box.long_m = along_x[k] ? size.x() : size.y();
       box.short_m = along_x[k] ? size.y() : size.x();
-      if (w_all > 0) {
-        const double deviation = (phi_sum[k] - phi_common * phi_w[k]) / (phi_w[k] + w_prior);
-        const double phi = phi_common + deviation;
-        if (std::abs(phi) < 5.0 * M_PI / 180.0) box.yaw_rad += phi;
-      }
+      box_turn[idx[k]] = w_all > 0 ? (phi_sum[k] - phi_common * phi_w[k]) / (phi_w[k] + w_prior) : 0.0;
     }
+  }
+  // Separate components of one layer stand on the same pallet pattern: each component's
+  // orientation deviates from the layer's (weighted mean, mod 90 deg) by its own evidence,
+  // shrunk by the same prior (a one-box component's outline alone must not turn it by degrees).
+  double sum_c = 0, sum_s = 0;
+  for (std::size_t ci = 0; ci < frames.size(); ++ci) {
+    if (!frames[ci].built) continue;
+    const double w = comp_w[ci] + 1e-9;
+    sum_c += w * std::cos(4 * comp_turn[ci]);
+    sum_s += w * std::sin(4 * comp_turn[ci]);
+  }
+  const double layer_turn = std::atan2(sum_s, sum_c) / 4;
+  for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
+    const auto ci = static_cast<std::size_t>(found.box_component[bi]);
+    if (ci >= frames.size() || !frames[ci].built || !std::isfinite(box_turn[bi])) continue;
+    const double delta = std::remainder(comp_turn[ci] - layer_turn, M_PI / 2);
+    const double turn = layer_turn + delta * comp_w[ci] / (comp_w[ci] + w_prior);
+    const double phi = std::remainder(turn - frames[ci].frame.theta_rad, M_PI / 2) + box_turn[bi];
+    if (std::abs(phi) < 5.0 * M_PI / 180.0) out.boxes[bi].yaw_rad += phi;
   }
   // Scores and coverage of the refined boxes.
   double covered = 0;
