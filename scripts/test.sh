@@ -74,14 +74,12 @@ stage_asan() {
 }
 
 # The threaded parts: the daemon (and palletctl, which the driver tests run), the service, the
-# Modbus server and its test server, and the camera drivers (Aravis, cloud replay). The OpenNI2
-# tests run in the release and asan stages, not here yet: under TSan they give no race report any
-# more, but one run in about four ends in a fatal signal inside .oni record/playback, not yet
-# explained (issue 9 stays open on it; docs/reliability.md "Sanitizer results").
+# Modbus server and its test server, and the camera drivers (Aravis, cloud replay, OpenNI2 with its
+# test device and .oni playback; docs/reliability.md "Sanitizer results").
 tsan_targets=(palletd palletctl palletd_daemon_tests palletd_service_tests palletd_modbus_tests
               palletd_modbus_test_server palletd_drivers_tests palletd_drivers_aravis_tests
-              palletd_drivers_cloud_tests)
-tsan_tests='^(palletd_daemon_tests|palletd_service_tests|palletd_modbus_tests|palletd_drivers_tests|palletd_drivers_aravis_tests|palletd_drivers_cloud_tests):|^palletd_modbus_(pymodbus|npm)_handshake$'
+              palletd_drivers_cloud_tests palletd_drivers_openni2_tests palletd_drivers_openni2_pairing_tests)
+tsan_tests='^(palletd_daemon_tests|palletd_service_tests|palletd_modbus_tests|palletd_drivers_tests|palletd_drivers_aravis_tests|palletd_drivers_cloud_tests|palletd_drivers_openni2_tests|palletd_drivers_openni2_pairing_tests):|^palletd_modbus_(pymodbus|npm)_handshake$'
 
 stage_tsan() {
   local build_dir=${BUILD_DIR_TSAN:-build-tsan}

@@ -6,10 +6,16 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <mutex>
+#include <optional>
+#include <thread>
 #include <utility>
+
+#include "openni2/frame_pairing.hpp"
 
 namespace palletd {
 
@@ -132,8 +138,47 @@ Intrinsics intrinsics_from_fov(int width, int height, double hfov_rad, double vf
 
 namespace {
 
-/// The device and its streams; replaced as a whole to rewind an .oni file. Destruction order
-/// (IR stream, depth stream, device) is the reverse of the members below.
+using Pairing = openni2::FramePairing<openni::VideoFrameRef>;
+
+/// Depth and IR frames kept for pairing (per stream): about 130 ms at 30 fps.
+constexpr std::size_t kRingFrames = 4;
+/// How long a grab waits for the IR partner of its depth frame: this many frame periods, at least
+/// kIrWaitMin_us (and never past the grab's timeout).
+constexpr double kIrWaitPeriods = 3.0;
+constexpr std::int64_t kIrWaitMin_us = 100000;
+/// .oni teardown: time for OniFile's player thread to finish a frame it is delivering (~Session).
+constexpr std::chrono::milliseconds kPlayerSettle{100};
+
+/// Puts every frame of one stream into the pairing rings. OpenNI calls onNewFrame() from the
+/// stream's own thread, once per wake-up of that thread: wake-ups coalesce, so a call can come
+/// after its frame was already read. readFrame() would then block (it waits for a frame without
+/// limit, holding the lock that removeNewFrameListener() needs), so the callback first asks
+/// without waiting whether a frame is there.
+class RingListener final : public openni::VideoStream::NewFrameListener {
+ public:
+  RingListener(Pairing& pairing, Pairing::Stream stream) : pairing_(pairing), stream_(stream) {}
+  void onNewFrame(openni::VideoStream& stream) override {
+    openni::VideoStream* ptr = &stream;
+    int ready = -1;
+    if (openni::OpenNI::waitForAnyStream(&ptr, 1, &ready, 0) != openni::STATUS_OK) return;
+    auto ref = std::make_shared<openni::VideoFrameRef>();
+    if (stream.readFrame(ref.get()) != openni::STATUS_OK || !ref->isValid()) return;
+    Pairing::Entry entry;
+    entry.timestamp_us = ref->getTimestamp();
+    entry.index = ref->getFrameIndex();
+    entry.frame = std::move(ref);
+    pairing_.push(stream_, std::move(entry));
+  }
+
+ private:
+  Pairing& pairing_;
+  Pairing::Stream stream_;
+};
+
+/// The device and its streams; replaced as a whole to rewind an .oni file. Members are destroyed
+/// in reverse order: listeners and held frames go before the streams they came from (a frame
+/// released after its stream is gone would be handed back to a freed stream), the streams
+/// (IR, depth) before the device.
 struct Session {
   openni::Device device;
   openni::VideoStream depth;
@@ -141,7 +186,52 @@ struct Session {
   bool has_ir = false;
   bool is_file = false;
   int file_frames = 0;   ///< depth frames in the .oni file
-  int last_index = 0;    ///< frame index of the last depth frame read (0 = none yet)
+  int last_index = 0;    ///< frame index of the last depth frame delivered (0 = none yet)
+  Pairing pairing{kRingFrames};
+  RingListener depth_listener{pairing, Pairing::Stream::depth};
+  RingListener ir_listener{pairing, Pairing::Stream::ir};
+  bool depth_listening = false;
+  bool ir_listening = false;
+
+  Session() = default;
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+  /// Debian's OniFile driver (OpenNI2 2.2, .oni playback) runs a player thread per device that
+  /// walks the device's stream list without a lock (PlayerDevice::MainLoop), while destroying a
+  /// stream unlinks and frees it from that list: destroying the streams of an open file crashed
+  /// the player thread now and then (SIGSEGV in libOniFile.so.0, about 1 run in 4 of the .oni test
+  /// under TSan). Closing the device while the player is handing over a frame crashes too (SIGSEGV
+  /// in libOpenNI2.so.0 under OniFile's frame delivery). So for a file: the streams are stopped,
+  /// the player is given kPlayerSettle to finish a frame under way (with no stream started it only
+  /// polls), and the device is closed first, which ends and joins the player thread; OniFile then
+  /// drops its stream list, and OpenNI releases the stream handles without asking OniFile to
+  /// destroy them (the device handle is gone), so OniFile's two small stream objects stay
+  /// allocated at each close or rewind (LeakSanitizer: leak:libOniFile.so in lsan.supp).
+  ~Session() {
+    stop_listening();
+    if (is_file) {
+      if (ir.isValid()) ir.stop();
+      if (depth.isValid()) depth.stop();
+      std::this_thread::sleep_for(kPlayerSettle);
+      device.close();
+    }
+  }
+
+  /// Listeners go on before the streams start, so that no first frame is missed.
+  void listen(openni::VideoStream& stream, RingListener& listener, bool& listening) {
+    if (!listening) listening = stream.addNewFrameListener(&listener) == openni::STATUS_OK;
+  }
+  static void unlisten(openni::VideoStream& stream, RingListener& listener, bool& listening) {
+    if (listening) stream.removeNewFrameListener(&listener);
+    listening = false;
+  }
+  /// After this no callback runs any more (removal waits for one under way), and no frame of
+  /// the streams is held.
+  void stop_listening() {
+    unlisten(ir, ir_listener, ir_listening);
+    unlisten(depth, depth_listener, depth_listening);
+    pairing.clear();
+  }
 };
 
 }  // namespace
@@ -253,7 +343,7 @@ Status OpenNI2Camera::open_device() {
     const openni::VideoMode irm = s->ir.getVideoMode();
     s->has_ir = irm.getResolutionX() == mode.getResolutionX() && irm.getResolutionY() == mode.getResolutionY() &&
                 (irm.getPixelFormat() == openni::PIXEL_FORMAT_GRAY16 || irm.getPixelFormat() == openni::PIXEL_FORMAT_GRAY8);
-    if (!s->has_ir) s->ir.destroy();
+    if (!s->has_ir && !s->is_file) s->ir.destroy();  // a file's streams go with its device (~Session)
   }
 
   // Intrinsics: configured, else from the field of view.
@@ -301,11 +391,17 @@ Status OpenNI2Camera::open_device() {
 
 Status OpenNI2Camera::start_streams() {
   Session& s = *impl_->session;
+  s.listen(s.depth, s.depth_listener, s.depth_listening);
+  if (!s.depth_listening) return Error{"openni2: cannot listen to the depth stream: " + oni_error()};
   if (s.depth.start() != openni::STATUS_OK) return Error{"openni2: depth stream does not start: " + oni_error()};
-  if (s.has_ir && s.ir.start() != openni::STATUS_OK) {
-    // Many structured-light devices cannot stream depth and IR at once: go on without intensity.
-    s.ir.destroy();
-    s.has_ir = false;
+  if (s.has_ir) {
+    s.listen(s.ir, s.ir_listener, s.ir_listening);
+    if (!s.ir_listening || s.ir.start() != openni::STATUS_OK) {
+      // Many structured-light devices cannot stream depth and IR at once: go on without intensity.
+      Session::unlisten(s.ir, s.ir_listener, s.ir_listening);
+      if (!s.is_file) s.ir.destroy();  // a file's streams go with its device (~Session)
+      s.has_ir = false;
+    }
   }
   return {};
 }
@@ -324,6 +420,7 @@ Status OpenNI2Camera::do_start() {
 
 Status OpenNI2Camera::do_stop() {
   Session& s = *impl_->session;
+  s.stop_listening();  // first: no callback may read a stream that stops under it
   if (s.has_ir) s.ir.stop();
   s.depth.stop();
   return {};
@@ -350,7 +447,7 @@ Expected<Frame> OpenNI2Camera::rewind_and_grab(std::chrono::milliseconds timeout
 }
 
 Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  const auto deadline = Pairing::Clock::now() + std::max(timeout, std::chrono::milliseconds(0));
   Session* s = impl_->session.get();
   if (s->is_file && s->last_index >= s->file_frames) {
     if (!options_.loop) {
@@ -360,11 +457,8 @@ Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
     return rewind_and_grab(timeout);
   }
 
-  openni::VideoStream* depth_ptr = &s->depth;
-  int ready = -1;
-  const int wait_ms = static_cast<int>(std::max<std::chrono::milliseconds::rep>(timeout.count(), 0));
-  const openni::Status waited = openni::OpenNI::waitForAnyStream(&depth_ptr, 1, &ready, wait_ms);
-  if (waited != openni::STATUS_OK) {
+  std::optional<Pairing::Entry> taken = s->pairing.take_depth(deadline);
+  if (!taken) {
     count_timeout();
     std::string why = "openni2: no depth frame from " + impl_->camera_id + " within " +
                       std::to_string(timeout.count()) + " ms";
@@ -387,13 +481,34 @@ Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
   }
   timeouts_in_row_ = 0;
 
-  openni::VideoFrameRef depth;
-  if (s->depth.readFrame(&depth) != openni::STATUS_OK || !frame_fits(depth, 2)) {
-    ++incomplete_;
-    return Error{"openni2: unreadable depth frame from " + impl_->camera_id + ": " + oni_error()};
+  // The IR frame of the same instant (device timestamps within half a frame period), from the IR
+  // ring; waits a few frame periods (within the grab's timeout) for one still on its way. When the
+  // partner is lost (OpenNI keeps one unread frame per stream, so a late callback can miss one),
+  // a newer depth frame that comes within that wait is taken instead (the skipped one counts as a
+  // drop); else the depth frame goes out without intensity.
+  std::optional<Pairing::Entry> partner;
+  if (s->has_ir) {
+    const auto ir_wait = std::chrono::microseconds(
+        std::max<std::int64_t>(static_cast<std::int64_t>(kIrWaitPeriods * impl_->frame_period_us), kIrWaitMin_us));
+    const auto ir_deadline = std::min(deadline, Pairing::Clock::now() + ir_wait);
+    const auto tolerance_us = static_cast<std::uint64_t>(0.5 * impl_->frame_period_us);
+    while (!(partner = s->pairing.take_ir_partner(taken->timestamp_us, tolerance_us, ir_deadline))) {
+      std::optional<Pairing::Entry> newer = s->pairing.take_depth(ir_deadline);
+      if (!newer) break;
+      taken = std::move(newer);
+    }
   }
+
+  const openni::VideoFrameRef& depth = *taken->frame;
+  if (!frame_fits(depth, 2)) {
+    ++incomplete_;
+    return Error{"openni2: unreadable depth frame from " + impl_->camera_id};
+  }
+  // Frames skipped since the last one delivered (an .oni file numbers its frames from 1).
   const int index = depth.getFrameIndex();
-  if (s->last_index > 0 && index > s->last_index + 1) drops_ += static_cast<std::uint64_t>(index - s->last_index - 1);
+  if ((s->last_index > 0 || s->is_file) && index > s->last_index + 1) {
+    drops_ += static_cast<std::uint64_t>(index - s->last_index - 1);
+  }
   s->last_index = std::max(s->last_index, index);
   if (depth.getWidth() != impl_->intrinsics.width || depth.getHeight() != impl_->intrinsics.height) {
     ++incomplete_;
@@ -412,32 +527,23 @@ Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
   frame.depth_scale_m = scale;
   copy_rows<std::uint16_t>(depth, frame.depth);
 
-  // The IR frame of the same instant (timestamps within half a frame period), if any.
   if (s->has_ir) {
-    openni::VideoStream* ir_ptr = &s->ir;
-    for (int tries = 0; tries < 3; ++tries) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-      const int budget = static_cast<int>(std::clamp<std::chrono::milliseconds::rep>(
-          left.count(), 0, static_cast<std::chrono::milliseconds::rep>(2.0 * impl_->frame_period_us / 1000.0) + 1));
-      if (openni::OpenNI::waitForAnyStream(&ir_ptr, 1, &ready, budget) != openni::STATUS_OK) break;
-      openni::VideoFrameRef ir;
-      if (s->ir.readFrame(&ir) != openni::STATUS_OK) break;
-      const double dt = static_cast<double>(ir.getTimestamp()) - static_cast<double>(depth.getTimestamp());
-      if (std::abs(dt) <= 0.5 * impl_->frame_period_us) {
-        const openni::PixelFormat pf = ir.getVideoMode().getPixelFormat();
-        const bool gray16 = pf == openni::PIXEL_FORMAT_GRAY16;
-        if (ir.getWidth() == depth.getWidth() && ir.getHeight() == depth.getHeight() && frame_fits(ir, gray16 ? 2 : 1)) {
-          if (gray16) {
-            copy_rows<std::uint16_t>(ir, frame.intensity);
-          } else {
-            copy_rows<std::uint8_t>(ir, frame.intensity);
-          }
-          frame.intensity_bits = gray16 ? 16 : 8;
+    bool paired = false;
+    if (partner) {
+      const openni::VideoFrameRef& ir = *partner->frame;
+      const openni::PixelFormat pf = ir.getVideoMode().getPixelFormat();
+      const bool gray16 = pf == openni::PIXEL_FORMAT_GRAY16;
+      if (ir.getWidth() == depth.getWidth() && ir.getHeight() == depth.getHeight() && frame_fits(ir, gray16 ? 2 : 1)) {
+        if (gray16) {
+          copy_rows<std::uint16_t>(ir, frame.intensity);
+        } else {
+          copy_rows<std::uint8_t>(ir, frame.intensity);
         }
-        break;
+        frame.intensity_bits = gray16 ? 16 : 8;
+        paired = true;
       }
-      if (dt > 0.0) break;  // IR is ahead of depth: no partner for this frame
     }
+    if (!paired) ++without_ir_;
   }
 
   frame.camera_id = impl_->camera_id;

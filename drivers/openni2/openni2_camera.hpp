@@ -3,6 +3,7 @@
 // the .cpp).
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -38,10 +39,22 @@ Intrinsics intrinsics_from_fov(int width, int height, double hfov_rad, double vf
 /// counted across cameras) and shut down when the last camera closes; all OpenNI handles are
 /// owned by RAII wrappers in the .cpp. Frames free-run (no trigger mode).
 ///
+/// Depth and IR: OpenNI's frame callbacks (its own per-stream threads) put every frame they see
+/// into two small rings (frame_pairing.hpp); grab() takes the newest depth frame (older unread
+/// ones count as drops) and pairs it with the IR frame nearest its device timestamp, within half a
+/// frame period, waiting up to max(3 frame periods, 100 ms) within the grab's timeout for one
+/// still to come. So a consumer slower than the frame rate still gets each depth frame's own IR
+/// image. OpenNI keeps only one unread frame per stream, so a callback that runs late can miss a
+/// frame: when a depth frame's partner is lost that way and a newer depth frame comes within the
+/// wait, the newer one is taken (the skipped one counts as a drop); otherwise the depth frame is
+/// delivered without intensity and counted (frames_without_ir()). The callbacks are removed, and
+/// the held frames released, before the streams stop or go away (stop(), close(), rewinding).
+///
 /// .oni playback runs at the recorded speed; at the end of the file the camera reopens the file
 /// (PlaybackControl::seek() crashes in Debian's OpenNI2 2.2) when `loop` is set, else grab()
 /// reports the end of the recording. Speed -1 (manual stepping) is never used: with
-/// waitForAnyStream it hangs in OpenNI2 2.2.
+/// waitForAnyStream it hangs in OpenNI2 2.2. Closing or reopening a file takes 100 ms more: the
+/// teardown waits for OniFile's player thread (see Session::~Session in the .cpp).
 class OpenNI2Camera final : public Camera {
  public:
   explicit OpenNI2Camera(OpenNI2Options options);
@@ -52,6 +65,9 @@ class OpenNI2Camera final : public Camera {
   [[nodiscard]] int recording_frame_count() const;
   /// Times the .oni file was reopened to start again.
   [[nodiscard]] std::uint64_t rewinds() const { return rewinds_; }
+  /// Depth frames delivered without intensity although the IR stream runs (no IR frame within
+  /// half a frame period came in time). Any thread.
+  [[nodiscard]] std::uint64_t frames_without_ir() const { return without_ir_.load(); }
 
  protected:
   Status do_open() override;
@@ -71,6 +87,7 @@ class OpenNI2Camera final : public Camera {
   int timeouts_in_row_ = 0;
   std::uint64_t sequence_ = 0;
   std::uint64_t rewinds_ = 0;
+  std::atomic<std::uint64_t> without_ir_{0};
 };
 
 }  // namespace palletd

@@ -14,6 +14,12 @@
 // cropping (off), field of view (from the first frame's fx/fy), min/max value, mirroring (off),
 // serial number. These are what openni::Recorder records and the .oni player needs back (Debian's
 // DummyDevice lacks stride and cropping, so its recordings do not play).
+//
+// Device property kPausePropertyId (0x70A11E70, an int): 1 pauses delivery and returns once no
+// frame of the device is on its way (the depth and IR frames of one instant go out together or
+// not at all), 0 resumes. Timestamps and frame indices go on counting while paused. The tests use
+// it to record .oni files that start and end with a whole depth+IR pair (openni::Recorder rebases
+// each stream's timestamps to that stream's first recorded frame).
 #include <Driver/OniDriverAPI.h>
 
 #include <chrono>
@@ -38,6 +44,7 @@ namespace {
 
 constexpr const char* kScheme = "palletd-test://";
 constexpr int kFps = 30;
+constexpr int kPausePropertyId = 0x70A11E70;
 
 /// The frames of one folder, converted once to what the streams deliver.
 struct Recording {
@@ -283,13 +290,25 @@ class TestDevice : public oni::driver::DeviceBase {
     }
   }
 
-  OniBool isPropertySupported(int id) override { return id == ONI_DEVICE_PROPERTY_SERIAL_NUMBER ? TRUE : FALSE; }
+  OniBool isPropertySupported(int id) override {
+    return id == ONI_DEVICE_PROPERTY_SERIAL_NUMBER || id == kPausePropertyId ? TRUE : FALSE;
+  }
   OniStatus getProperty(int id, void* data, int* size) override {
     if (id != ONI_DEVICE_PROPERTY_SERIAL_NUMBER) return ONI_STATUS_NOT_SUPPORTED;
     const char serial[] = "PDONI01";
     if (*size < static_cast<int>(sizeof serial)) return ONI_STATUS_BAD_PARAMETER;
     std::memcpy(data, serial, sizeof serial);
     *size = static_cast<int>(sizeof serial);
+    return ONI_STATUS_OK;
+  }
+  OniStatus setProperty(int id, const void* data, int size) override {
+    if (id != kPausePropertyId) return ONI_STATUS_NOT_SUPPORTED;
+    if (size != static_cast<int>(sizeof(int))) return ONI_STATUS_BAD_PARAMETER;
+    int pause = 0;
+    std::memcpy(&pause, data, sizeof pause);
+    std::unique_lock<std::mutex> lock(mutex_);
+    paused_ = pause != 0;
+    cv_.wait(lock, [this] { return !pushing_; });  // the instant under way goes out whole
     return ONI_STATUS_OK;
   }
 
@@ -303,11 +322,16 @@ class TestDevice : public oni::driver::DeviceBase {
       due += period;
       if (cv_.wait_until(lock, due, [this] { return quit_; })) break;
       const std::size_t i = static_cast<std::size_t>(n) % rec_.depth_1mm.size();
-      // Frames go out without the device lock held (see TestStream::push).
-      const std::vector<std::shared_ptr<TestStream>> streams = streams_;
-      lock.unlock();
-      for (const auto& s : streams) s->push(i, n);
-      lock.lock();
+      if (!paused_) {
+        // Frames go out without the device lock held (see TestStream::push).
+        const std::vector<std::shared_ptr<TestStream>> streams = streams_;
+        pushing_ = true;
+        lock.unlock();
+        for (const auto& s : streams) s->push(i, n);
+        lock.lock();
+        pushing_ = false;
+        cv_.notify_all();
+      }
       ++n;
     }
   }
@@ -318,7 +342,9 @@ class TestDevice : public oni::driver::DeviceBase {
   OniSensorInfo sensors_[2];
   std::mutex mutex_;
   std::condition_variable cv_;
-  bool quit_ = false;
+  bool quit_ = false;      ///< guarded by mutex_
+  bool paused_ = false;    ///< guarded by mutex_
+  bool pushing_ = false;   ///< frames of one instant on their way; guarded by mutex_
   std::vector<std::shared_ptr<TestStream>> streams_;
   std::thread thread_;
 };
