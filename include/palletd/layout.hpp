@@ -86,8 +86,8 @@ struct LayoutParams {
   double min_coverage = 0.8;
   bool refine = true;                  ///< solve_layout: run refine_layout
   double refine_size_tolerance_m = 0.010;  ///< refined sizes stay within nominal +/- this [m]
-  /// Prior spread of a box's own turn against the rest of its layer [deg]; 0 turns all boxes
-  /// of a component together.
+  /// Prior spread of a box's own turn against the rest of its layer, and of a separate
+  /// component's against the layer's orientation [deg]; 0 turns all boxes of a layer together.
   double refine_yaw_sigma_deg = 0.5;
 };
 
