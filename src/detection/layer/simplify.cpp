@@ -16,6 +16,9 @@ constexpr double kPi = 3.14159265358979323846;
 /// Farthest a corner moves from its vertex to the crossing of its two long lines [pitches]:
 /// beyond it the crossing is no blunted corner but a missing piece the samples would show.
 constexpr double kMaxCornerPull = 10.0;
+/// Widest angle [rad] by which a short step riser between two edges across it is snapped onto
+/// the grid (its direction's uncertainty, atan(pitch / length), capped).
+constexpr double kMaxRiserSnap = 20.0 * kPi / 180.0;
 
 struct Line {
   Eigen::Vector2d point = Eigen::Vector2d::Zero();
@@ -348,18 +351,33 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
   }
   const double grid = std::atan2(s4, c) / 4.0;
   const double snap_rad = params.snap_angle_deg * kPi / 180.0;
-  auto snap = [&](Line& line) {
+  auto snap = [&](Line& line, double widen_rad) {
     if (line.samples.size() < 3 || snap_rad <= 0.0) return;
     const double a = std::atan2(line.dir.y(), line.dir.x());
     const double q = std::round((a - grid) / (kPi / 2.0));
     const double target = grid + q * kPi / 2.0;
-    if (std::abs(a - target) > snap_rad) return;
+    if (std::abs(a - target) > std::max(snap_rad, widen_rad)) return;
     line.dir = Eigen::Vector2d(std::cos(target), std::sin(target));
     Eigen::Vector2d mean = Eigen::Vector2d::Zero();
     for (const auto& p : line.samples) mean += p;
     line.point = mean / static_cast<double>(line.samples.size());
   };
-  for (auto& line : lines) snap(line);
+  for (auto& line : lines) snap(line, 0.0);
+  // The riser of a step: a short edge between two edges across the grid axis it nearly follows
+  // lies along that axis. Its fitted direction is uncertain by about a pitch over its length
+  // (its ends lie anywhere within their border pixels; at a coarse pitch and a grid near 45
+  // degrees a 100 mm step is a few pixels): within that, up to kMaxRiserSnap, it is snapped.
+  for (std::size_t k = 0; k < lines.size() && lines.size() > 4; ++k) {
+    const Line& before = lines[(k + lines.size() - 1) % lines.size()];
+    const Line& after = lines[(k + 1) % lines.size()];
+    const double a = std::atan2(lines[k].dir.y(), lines[k].dir.x());
+    const double axis = grid + std::round((a - grid) / (kPi / 2.0)) * (kPi / 2.0);
+    const Eigen::Vector2d g(std::cos(axis), std::sin(axis));
+    if (kPi / 2.0 - angle_between_dirs(g, before.dir) > merge_rad ||
+        kPi / 2.0 - angle_between_dirs(g, after.dir) > merge_rad)
+      continue;
+    snap(lines[k], std::min(std::atan2(pitch_m, std::max(lines[k].length, 1e-9)), kMaxRiserSnap));
+  }
 
   // Line b parallel to line a and in line with it (no step between them) [lateral in m].
   auto in_line = [&](const Line& a, const Line& b) {
@@ -408,7 +426,7 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
             (lines[k].length < lines[j].length && in_line(lines[k], before)))
           continue;
       }
-      snap(m);
+      snap(m, 0.0);
       lines[k] = m;
       lines.erase(lines.begin() + static_cast<std::ptrdiff_t>(j));
       v.erase(v.begin() + static_cast<std::ptrdiff_t>(j));
