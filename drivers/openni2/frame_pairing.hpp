@@ -1,6 +1,7 @@
 // Depth/IR pairing for the OpenNI2 driver (openni2_camera.cpp): two small rings of recent frames,
 // filled from OpenNI's frame callbacks (any thread), emptied by the acquisition thread. Private
-// header; no OpenNI type here, so the pairing rules are tested on their own (test_openni2.cpp).
+// header; no OpenNI type here, so the pairing rules are tested on their own
+// (tests/drivers/test_openni2_pairing.cpp).
 //
 // Rules:
 // - take_depth() gives the newest depth frame not taken yet (waiting for one until a deadline)
