@@ -109,7 +109,12 @@ EOF
 "$palletd" --check-config "$config" >/dev/null
 
 log=$out/palletd.log
-"$palletd" --config "$config" --web-port "$web" >"$log" 2>&1 &
+# In an ASan build freed memory waits in ASan's quarantine (256 MB by default) before it is used
+# again, so RSS climbs with the allocation churn until the quarantine is full: growth that is no
+# leak. A small quarantine lets RSS show the live memory; leaks are LeakSanitizer's job at exit.
+# (Later ASAN_OPTIONS entries win; other builds ignore the variable.)
+ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}quarantine_size_mb=16" \
+  "$palletd" --config "$config" --web-port "$web" >"$log" 2>&1 &
 pid=$!
 cleanup() {
   if kill -0 "$pid" 2>/dev/null; then kill "$pid"; wait "$pid" 2>/dev/null || true; fi
