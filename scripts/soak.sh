@@ -30,7 +30,7 @@ palletd=""
 evaluate=""
 duration=120
 period_ms=100
-sample_s=5
+sample_s=""  # default: 1 s below 10 min, else 5 s
 out=""
 rss_tol_kb=8192
 fd_tol=4
@@ -57,6 +57,10 @@ while [[ $# -gt 0 ]]; do
   esac
 done
 [[ $time_scale =~ ^[1-9][0-9]*$ ]] || { echo "soak.sh: --time-scale takes a whole number >= 1" >&2; exit 2; }
+# RSS steps up for a few seconds now and then (a large frame's buffers, glibc keeping freed memory
+# for a while) and comes back down; in a short run a 5 s sample rate gives each quarter only a few
+# samples, so two such spikes could carry its median. Short runs sample every second.
+[[ -n $sample_s ]] || sample_s=$(( duration >= 600 ? 5 : 1 ))
 p99_slack_ms=$(awk -v s="$p99_slack_ms" -v k="$time_scale" 'BEGIN{print s*k}')
 if [[ -n $evaluate ]]; then
   # Judge an earlier run's folder again (e.g. with other tolerances); nothing is started.
