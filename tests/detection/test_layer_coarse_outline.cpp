@@ -13,25 +13,17 @@
 #include <vector>
 
 #include "layer_stages.hpp"
+#include "outline_test_util.hpp"
 #include "palletd/layer.hpp"
 
 using namespace palletd;
+using palletd::testing::describe;
+using palletd::testing::nearest;
+using palletd::testing::walk;
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-double nearest(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& q) {
-  double best = 1e9;
-  for (const auto& p : points) best = std::min(best, (p - q).norm());
-  return best;
-}
-
-std::string describe(const Ring2d& poly) {
-  std::string s;
-  for (const auto& c : poly) s += "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ") ";
-  return s;
-}
 
 }  // namespace
 
@@ -50,14 +42,7 @@ TEST_CASE("a short tilted step riser at a coarse pitch follows the grid", "[laye
   measured[3] = at(0.3 + tilt_m, 0.3);
   measured[4] = at(0.3 - tilt_m, 0.4);
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> jitter(-0.002, 0.002);
-  std::vector<Eigen::Vector2d> samples;
-  for (std::size_t k = 0; k < measured.size(); ++k) {
-    const Eigen::Vector2d a = measured[k], b = measured[(k + 1) % measured.size()];
-    const Eigen::Vector2d d = (b - a).normalized(), n(d.y(), -d.x());
-    const int count = static_cast<int>(std::round((b - a).norm() / 0.005));
-    for (int i = 0; i < count; ++i) samples.push_back(a + (b - a) * (static_cast<double>(i) / count) + jitter(rng) * n);
-  }
+  std::vector<Eigen::Vector2d> samples = walk(measured, 0.005, 0.002, &rng);
 
   const Ring2d poly = layer::simplify_ring(measured, samples, pitch, ContourParams{});
   INFO("tilt " << tilt_m << " m, yaw " << yaw << " rad, polygon " << describe(poly));
@@ -74,12 +59,7 @@ TEST_CASE("a chamfered corner between two edges keeps its diagonal at a coarse p
   // A 0.6 x 0.4 m layer with a step and a 0.1 m chamfer (5 pitches along each side) at (0.6, 0).
   const std::vector<Eigen::Vector2d> truth{at(0, 0),     at(0.5, 0),   at(0.6, 0.1), at(0.6, 0.3),
                                            at(0.3, 0.3), at(0.3, 0.4), at(0, 0.4)};
-  std::vector<Eigen::Vector2d> samples;
-  for (std::size_t k = 0; k < truth.size(); ++k) {
-    const Eigen::Vector2d a = truth[k], b = truth[(k + 1) % truth.size()];
-    const int count = static_cast<int>(std::round((b - a).norm() / 0.005));
-    for (int i = 0; i < count; ++i) samples.push_back(a + (b - a) * (static_cast<double>(i) / count));
-  }
+  const std::vector<Eigen::Vector2d> samples = walk(truth, 0.005);
   const Ring2d poly = layer::simplify_ring(truth, samples, pitch, ContourParams{});
   INFO("polygon " << describe(poly));
   REQUIRE(poly.size() == truth.size());

@@ -12,23 +12,15 @@
 #include <vector>
 
 #include "layer_stages.hpp"
+#include "outline_test_util.hpp"
 #include "palletd/layer.hpp"
 
 using namespace palletd;
+using palletd::testing::describe;
+using palletd::testing::nearest;
+using palletd::testing::walk;
 
 namespace {
-
-double nearest(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& q) {
-  double best = 1e9;
-  for (const auto& p : points) best = std::min(best, (p - q).norm());
-  return best;
-}
-
-std::string describe(const Ring2d& poly) {
-  std::string s;
-  for (const auto& c : poly) s += "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ") ";
-  return s;
-}
 
 }  // namespace
 
@@ -48,14 +40,7 @@ TEST_CASE("a short piece across a corner stays with its own side", "[layer][simp
   // plus a few stray points 3 pitches outside the middle of the far long side (a flying-pixel
   // cluster), so that no single rectangle explains every sample.
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> jitter(-0.001, 0.001);
-  std::vector<Eigen::Vector2d> samples;
-  for (std::size_t k = 0; k < corners.size(); ++k) {
-    const Eigen::Vector2d a = corners[k], b = corners[(k + 1) % corners.size()];
-    const Eigen::Vector2d d = (b - a).normalized(), n(d.y(), -d.x());  // n points outward
-    const int count = static_cast<int>(std::round((b - a).norm() / 0.003));
-    for (int i = 0; i < count; ++i) samples.push_back(a + (b - a) * (static_cast<double>(i) / count) + jitter(rng) * n);
-  }
+  std::vector<Eigen::Vector2d> samples = walk(corners, 0.003, 0.001, &rng);
   const Eigen::Vector2d mid_far = 0.5 * (corners[2] + corners[3]);
   for (int i = -8; i <= 8; ++i) samples.push_back(mid_far + 0.003 * i * u + 3.0 * pitch * w);
 

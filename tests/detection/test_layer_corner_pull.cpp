@@ -12,34 +12,15 @@
 #include <vector>
 
 #include "layer_stages.hpp"
+#include "outline_test_util.hpp"
 #include "palletd/layer.hpp"
 
 using namespace palletd;
+using palletd::testing::describe;
+using palletd::testing::nearest;
+using palletd::testing::walk;
 
 namespace {
-
-double nearest(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& q) {
-  double best = 1e9;
-  for (const auto& p : points) best = std::min(best, (p - q).norm());
-  return best;
-}
-
-/// Points every `step_m` along a closed outline.
-std::vector<Eigen::Vector2d> walk(const std::vector<Eigen::Vector2d>& outline, double step_m) {
-  std::vector<Eigen::Vector2d> pts;
-  for (std::size_t k = 0; k < outline.size(); ++k) {
-    const Eigen::Vector2d a = outline[k], b = outline[(k + 1) % outline.size()];
-    const int n = std::max(1, static_cast<int>(std::round((b - a).norm() / step_m)));
-    for (int i = 0; i < n; ++i) pts.push_back(a + (b - a) * (static_cast<double>(i) / n));
-  }
-  return pts;
-}
-
-std::string describe(const Ring2d& poly) {
-  std::string s;
-  for (const auto& c : poly) s += "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ") ";
-  return s;
-}
 
 /// Direction of the polygon edge nearest to the midpoint of a..b, mod 180 deg, against a..b [deg].
 double edge_tilt_deg(const Ring2d& poly, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {

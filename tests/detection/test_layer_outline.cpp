@@ -9,11 +9,15 @@
 #include <opencv2/imgproc.hpp>
 
 #include "layer_stages.hpp"
+#include "outline_test_util.hpp"
 #include "palletd/detection.hpp"
 #include "palletd/layer.hpp"
 #include "synthetic_scene.hpp"
 
 using namespace palletd;
+using palletd::testing::describe;
+using palletd::testing::nearest;
+using palletd::testing::walk;
 using namespace palletd::testing;
 
 namespace {
@@ -22,12 +26,6 @@ constexpr double kBoxArea = 0.315 * 0.232;
 
 LayerResult run(const SynthFrame& f, LayerParams lp = {}, LayerTrace* trace = nullptr) {
   return extract_layer(f.frame, f.cloud, PlaneParams{}, lp, ContourParams{}, 0.5 * kBoxArea, trace);
-}
-
-double nearest(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& q) {
-  double best = 1e9;
-  for (const auto& p : points) best = std::min(best, (p - q).norm());
-  return best;
 }
 
 double segment_distance(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& q) {
@@ -92,12 +90,6 @@ Rasterised rasterise_xy(const Inside& inside, double pitch_x_m, double pitch_y_m
 template <typename Inside>
 Rasterised rasterise(const Inside& inside, double pitch_m, int w, int h, bool whole_footprint = false) {
   return rasterise_xy(inside, pitch_m, pitch_m, w, h, whole_footprint);
-}
-
-std::string describe(const Ring2d& poly) {
-  std::string s;
-  for (const auto& c : poly) s += "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ") ";
-  return s;
 }
 
 }  // namespace
