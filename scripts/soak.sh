@@ -166,8 +166,6 @@ fi
 # RSS: the floor of each quarter (its 25th percentile), because single samples catch the transient
 # peaks of a detection or of memory glibc keeps for a while (up to tens of MB); a leak raises the floor.
 verdict=$(awk -F, -v warm="$warmup" -v dur="$duration" -v rtol="$rss_tol_kb" -v ftol="$fd_tol" -v ring_max="$ring_bytes" '
-  function median(a, n,   i, j, t) { for (i=1;i<=n;i++) for (j=i+1;j<=n;j++) if (a[j]<a[i]) {t=a[i];a[i]=a[j];a[j]=t}
-    return n%2 ? a[(n+1)/2] : (a[n/2]+a[n/2+1])/2 }
   function floor25(a, n,   i, j, t) { for (i=1;i<=n;i++) for (j=i+1;j<=n;j++) if (a[j]<a[i]) {t=a[i];a[i]=a[j];a[j]=t}
     return a[int((n-1)/4)+1] }
   NR==1 {next}
