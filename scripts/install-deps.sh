@@ -18,6 +18,7 @@ packages=(
   mbpoll  # the Modbus commands in docs/register-map.md
   chromium  # headless browser test of the status page (tests/web)
   clang-14 libclang-rt-14-dev  # ASan+UBSan build with libFuzzer (scripts/test.sh asan/fuzz stages)
+  gdb  # thread stacks of a daemon that does not exit in time (tests/reliability/daemon_harness.hpp)
 )
 if [[ "${1:-}" == "--print" ]]; then printf '%s\n' "${packages[@]}"; exit 0; fi
 

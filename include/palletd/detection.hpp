@@ -40,6 +40,9 @@ struct DetectedBox {
   int format = 0;        ///< index into the recipe's formats
   double score = 0.0;    ///< 0..1
   int pick_index = 0;
+  /// Completed across an outline edge where the depth ends: part of its top was not seen, so its
+  /// far side is placed by the format, not measured (LayoutParams::unseen_min_fraction).
+  bool partly_unseen = false;
   Box2d in_layer;        ///< the same box in the layer frame
   std::optional<Eigen::Vector3d> base_position;  ///< [m] when T_base_camera is known
   std::optional<double> base_yaw_deg;            ///< [deg] (-180, 180]

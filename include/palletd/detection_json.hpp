@@ -17,7 +17,8 @@ namespace palletd {
 /// The JSON Lines record of one frame, without a trailing newline:
 /// frame, status, message, timing_ms{total, ...}, layer{plane, area_m2, coverage}, ambiguous,
 /// budget_exhausted, clipped_by_image_border, outline_unobserved,
-/// boxes[{center, long_axis, normal, size, format, score, base{position, yaw_deg}?, pick_index}].
+/// boxes[{center, long_axis, normal, size, format, score, partly_unseen, base{position, yaw_deg}?,
+/// pick_index}].
 std::string detection_to_json_line(const Detection& detection, const std::string& frame_stem);
 
 /// One box of a parsed detection line, camera frame [m].
@@ -29,6 +30,7 @@ struct ParsedBox {
   int format = 0;
   double score = 0.0;
   int pick_index = 0;
+  bool partly_unseen = false;  ///< absent in the line: false
   std::optional<Eigen::Vector3d> base_position;  ///< [m]
   std::optional<double> base_yaw_deg;            ///< [deg]
 };

@@ -31,6 +31,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -89,6 +90,11 @@ struct LayoutParams {
   /// Prior spread of a box's own turn against the rest of its layer, and of a separate
   /// component's against the layer's orientation [deg]; 0 turns all boxes of a layer together.
   double refine_yaw_sigma_deg = 0.5;
+  /// Boxes the outline cuts where the depth ends (beyond the range, too dark; see
+  /// LayerSurroundings): a box of the recipe is placed across such an edge when at least this
+  /// share of it is on the layer, two of its sides (one per axis) lie on seen edges of the
+  /// outline or on neighbours, and its part off the layer is unseen, not seen lower. 0 = never.
+  double unseen_min_fraction = 0.4;
 };
 
 /// Seam evidence: a raster in the layer frame of how much each spot looks like a gap between
@@ -127,6 +133,35 @@ struct SeamParams {
 SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud,
                                  const LayerResult& layer, const SeamParams& params = {});
 
+/// What the camera saw on and around the layer, resampled into the layer frame: where the layer
+/// may go on unseen (no depth, or something above it in the view) and where the view shows the
+/// surface lower (the layer ends there). Built with the pixels' viewing rays, so pixels without
+/// depth land where they belong on the plane.
+struct LayerSurroundings {
+  enum Label : std::uint8_t { unseen = 0, level = 1, below = 2 };
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< layer-frame corner of cell (0, 0) [m]
+  double cell_m = 0.01;                                ///< cell size [m]
+  int width = 0;                                       ///< cells along layer x
+  int height = 0;                                      ///< cells along layer y
+  std::vector<std::uint8_t> label;                     ///< row-major (row = y), a Label per cell
+
+  [[nodiscard]] bool empty() const { return width <= 0 || height <= 0 || label.empty(); }
+  [[nodiscard]] std::uint8_t at(int ix, int iy) const {
+    return label[static_cast<std::size_t>(iy) * static_cast<std::size_t>(width) + static_cast<std::size_t>(ix)];
+  }
+  /// The label at a layer-frame point (unseen outside the raster).
+  [[nodiscard]] std::uint8_t at_point(const Eigen::Vector2d& p_m) const;
+  /// Whether anything is seen (level or below) along the ray from p_m in direction dir (unit,
+  /// layer frame) within reach_m.
+  [[nodiscard]] bool seen_within(const Eigen::Vector2d& p_m, const Eigen::Vector2d& dir, double reach_m) const;
+};
+
+/// The layer's surroundings within reach_m of its outline (cells outside the image: unseen).
+/// A pixel is at the layer's level within max(15 mm, the layer's passthrough band) of the plane,
+/// below it further down, unseen without depth or further up. Empty when the layer is not ok.
+LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCloud& cloud,
+                                           const LayerResult& layer, double reach_m);
+
 /// Result of the layout search for all components of a layer.
 struct LayoutResult {
   DetectionStatus status = DetectionStatus::no_layout;
@@ -134,28 +169,36 @@ struct LayoutResult {
   std::vector<Box2d> boxes;          ///< layer frame
   std::vector<double> box_scores;    ///< 0..1 per box
   std::vector<int> box_component;    ///< index of the component each box lies on
+  /// Per box: completed across an outline edge where the depth ends (part of it unseen).
+  std::vector<bool> box_partly_unseen;
   bool ambiguous = false;            ///< another layout scores (nearly) the same
   bool budget_exhausted = false;     ///< time budget or node cap reached: best so far returned
   double coverage = 0.0;             ///< covered share of the layer area
   double score = 0.0;                ///< sum over components of the search score [m^2]
   double runner_up_gap = -1.0;       ///< score gap to the best different layout [m^2]; -1 = none
   std::vector<Box2d> runner_up;      ///< that layout (diagnostics), empty if none
+  /// Boxes completed across outline edges where the depth ends (LayoutParams::unseen_min_fraction).
+  std::size_t completed_unseen = 0;
   std::size_t hypotheses_visited = 0;
   std::size_t search_expansions = 0;  ///< product search: node expansions used (the budget's unit)
   double search_ms = 0.0;
 };
 
-/// Finds the box layout of each component. `seams` may be null (outline only).
+/// Finds the box layout of each component. `seams` may be null (outline only). With
+/// `surroundings`, boxes the outline cuts where the depth ends are completed
+/// (LayoutParams::unseen_min_fraction).
 LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
                          const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                         const SeamEvidence* seams);
+                         const SeamEvidence* seams, const LayerSurroundings* surroundings = nullptr);
 
 /// Fits the found boxes to the measured outline (layer points) and to seam lines so that
 /// positions reach millimetres; sizes stay at the nominal format within
-/// refine_size_tolerance_m. Recomputes per-box scores. `seams` may be null.
+/// refine_size_tolerance_m. Recomputes per-box scores. `seams` may be null. With
+/// `surroundings`, outline stretches where the depth ends (nothing seen beyond within 50 mm)
+/// are not taken for box edges.
 LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                            const std::vector<BoxFormat>& formats, const SeamEvidence* seams,
-                           const LayoutParams& params);
+                           const LayoutParams& params, const LayerSurroundings* surroundings = nullptr);
 
 /// build_seam_evidence + find_layout + refine_layout.
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,

@@ -112,8 +112,18 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   // Stage 8: poses in the camera and base frames, pick order.
   out.boxes = to_detected_boxes(layout.boxes, layout.box_scores, out.layer.T_camera_layer, frame.T_base_camera,
                                 params.pick_order);
+  for (DetectedBox& d : out.boxes) {
+    for (std::size_t i = 0; i < layout.boxes.size() && i < layout.box_partly_unseen.size(); ++i) {
+      if (layout.box_partly_unseen[i] && (layout.boxes[i].center - d.in_layer.center).norm() < 1e-9) d.partly_unseen = true;
+    }
+  }
   // The layer's warnings (an outline along invalid depth) stay with a successful frame.
-  return finish(DetectionStatus::ok, out.layer.reason);
+  std::string message = out.layer.reason;
+  if (layout.completed_unseen > 0) {
+    message += (message.empty() ? "" : "; ") + std::to_string(layout.completed_unseen) +
+               " box(es) completed across the edge where the depth ends (partly_unseen)";
+  }
+  return finish(DetectionStatus::ok, message);
 }
 
 }  // namespace palletd

@@ -45,6 +45,7 @@ std::string detection_to_json_line(const Detection& detection, const std::string
     box["size"] = {b.long_m, b.short_m};
     box["format"] = b.format;
     box["score"] = b.score;
+    box["partly_unseen"] = b.partly_unseen;
     if (b.base_position) {
       Json base;
       base["position"] = vec3(*b.base_position);
@@ -95,6 +96,10 @@ std::string parse_box(const nlohmann::json& b, const std::string& where, ParsedB
   if (!b.contains("format") || !b["format"].is_number_integer()) return where + ".format must be an integer";
   box.format = b["format"].get<int>();
   if (b.contains("score") && !read_double(b["score"], box.score)) return where + ".score must be a number";
+  if (b.contains("partly_unseen")) {
+    if (!b["partly_unseen"].is_boolean()) return where + ".partly_unseen must be true or false";
+    box.partly_unseen = b["partly_unseen"].get<bool>();
+  }
   if (b.contains("pick_index")) {
     if (!b["pick_index"].is_number_integer()) return where + ".pick_index must be an integer";
     box.pick_index = b["pick_index"].get<int>();

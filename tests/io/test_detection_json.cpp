@@ -36,6 +36,7 @@ Detection sample_detection() {
   b.pick_index = 0;
   b.base_position = Eigen::Vector3d(1.0, 2.0, 0.5);
   b.base_yaw_deg = -90.0;
+  b.partly_unseen = true;
   d.boxes = {a, b};
   return d;
 }
@@ -95,6 +96,7 @@ TEST_CASE("detection line round trip through the parser") {
     CHECK(p.boxes[i].format == d.boxes[i].format);
     CHECK(p.boxes[i].score == d.boxes[i].score);
     CHECK(p.boxes[i].pick_index == d.boxes[i].pick_index);
+    CHECK(p.boxes[i].partly_unseen == d.boxes[i].partly_unseen);
   }
   CHECK_FALSE(p.boxes[0].base_position.has_value());
   REQUIRE(p.boxes[1].base_position.has_value());
@@ -138,6 +140,12 @@ TEST_CASE("bad detection lines are errors") {
                  R"("normal":[0,0,-1],"size":[0.3],"format":0}]})")
                  .error(),
              Contains("boxes[0].size"));
+  const std::string box = R"({"center":[0,0,1],"long_axis":[1,0,0],"normal":[0,0,-1],"size":[0.3,0.2],"format":0)";
+  CHECK_THAT(parse_detection_line(R"({"frame":"a","status":"ok","boxes":[)" + box + R"(,"partly_unseen":1}]})").error(),
+             Contains("boxes[0].partly_unseen"));
+  auto without = parse_detection_line(R"({"frame":"a","status":"ok","boxes":[)" + box + "}]}");
+  REQUIRE(without.ok());
+  CHECK_FALSE(without->boxes.at(0).partly_unseen);  // lines written before the key existed
   // Extra keys are ignored; optional keys take defaults.
   auto minimal = parse_detection_line(R"({"frame":"a","status":"no_layer","boxes":[],"extra":{"k":1}})");
   REQUIRE(minimal.ok());

@@ -13,9 +13,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -79,11 +84,14 @@ inline fs::path write_config(const fs::path& dir, const std::string& sections, c
   return path;
 }
 
-/// A unix datagram socket standing in for systemd's notify socket.
+/// A unix datagram socket standing in for systemd's notify socket. Like systemd it reads every
+/// message as it comes (a reader thread): a socket left unread fills its queue (10 datagrams)
+/// and the daemon's next sd_notify blocks, which is not what a real service manager does.
+/// wait_for takes the received messages in order.
 struct NotifySocket {
   int fd = -1;
   std::string path;
-  std::string seen;  ///< every message received so far, one per line
+  std::string seen;  ///< every message taken by wait_for so far, one per line
   NotifySocket() {
     static int counter = 0;
     path = (fs::temp_directory_path() /
@@ -97,26 +105,46 @@ struct NotifySocket {
     REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
     timeval tv{0, 50000};
     ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    reader_ = std::thread([this] {
+      while (!stop_) {
+        char buf[4096];
+        const ssize_t n = ::recv(fd, buf, sizeof buf - 1, 0);
+        if (n <= 0) continue;
+        std::lock_guard<std::mutex> lock(mutex_);
+        received_.emplace_back(buf, static_cast<std::size_t>(n));
+        cv_.notify_all();
+      }
+    });
   }
   ~NotifySocket() {
+    stop_ = true;
+    reader_.join();
     ::close(fd);
     ::unlink(path.c_str());
   }
   NotifySocket(const NotifySocket&) = delete;
   NotifySocket& operator=(const NotifySocket&) = delete;
-  /// Collects messages until one received from now on contains `needle`, or the timeout passes.
+  /// Takes messages in order until one not taken before contains `needle`, or the timeout passes.
   bool wait_for(const std::string& needle, std::chrono::milliseconds timeout) {
     const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < deadline) {
-      char buf[4096];
-      const ssize_t n = ::recv(fd, buf, sizeof buf - 1, 0);
-      if (n <= 0) continue;
-      const std::string msg(buf, static_cast<std::size_t>(n));
-      seen += msg + "\n";
-      if (msg.find(needle) != std::string::npos) return true;
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      while (!received_.empty()) {
+        const std::string msg = std::move(received_.front());
+        received_.pop_front();
+        seen += msg + "\n";
+        if (msg.find(needle) != std::string::npos) return true;
+      }
+      if (cv_.wait_until(lock, deadline) == std::cv_status::timeout && received_.empty()) return false;
     }
-    return false;
   }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<std::string> received_;
+  std::thread reader_;
 };
 
 /// The palletd executable of this build tree, run with `args`, output to `log` (empty: this
@@ -186,7 +214,20 @@ struct Daemon {
       }
       std::this_thread::sleep_for(5ms);
     }
+    report_hang();
     return -1;
+  }
+  /// For a daemon that did not exit in time: every thread's stack (gdb, when installed) and the
+  /// log's tail on stderr, which ctest shows with the failure.
+  void report_hang() const {
+    std::fprintf(stderr, "palletd (pid %d) has not exited; its threads:\n", static_cast<int>(pid));
+    std::fflush(stderr);
+    const std::string gdb = "command -v gdb >/dev/null && timeout 60 gdb -p " + std::to_string(pid) +
+                            " -batch -nx -ex 'thread apply all bt 16' 2>&1 | grep -E '^(Thread|#)' >&2";
+    if (std::system(gdb.c_str()) != 0) std::fprintf(stderr, "(no stacks: gdb missing or attach refused)\n");
+    const std::string text = log_text();
+    std::fprintf(stderr, "palletd log (last 3000 bytes):\n%s\n",
+                 text.substr(text.size() > 3000 ? text.size() - 3000 : 0).c_str());
   }
   [[nodiscard]] std::string log_text() const { return log.empty() ? std::string() : read_text(log); }
   [[nodiscard]] std::size_t open_fds() const {

@@ -122,7 +122,7 @@ struct Candidate {
 
 LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
                          const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                         const SeamEvidence* seams) {
+                         const SeamEvidence* seams, const LayerSurroundings* surroundings) {
   const auto t0 = std::chrono::steady_clock::now();
   LayoutResult result;
   auto finish = [&]() {
@@ -160,7 +160,10 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       reasons.push_back("component " + std::to_string(ci) + " has no area");
       continue;
     }
-    if (comp_area < params.a_min_fraction * min_box_area) {
+    // A component smaller than a box may be a box the outline cuts where the depth ends.
+    const bool may_complete = surroundings != nullptr && !surroundings->empty() && params.unseen_min_fraction > 0.0 &&
+                              params.search == SearchMode::product;
+    if (comp_area < (may_complete ? params.unseen_min_fraction : params.a_min_fraction) * min_box_area) {
       reasons.push_back("component " + std::to_string(ci) + " is smaller than every box format");
       continue;
     }
@@ -185,6 +188,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       for (const auto& b : ps.boxes) {
         result.boxes.push_back(b);
         result.box_component.push_back(static_cast<int>(ci));
+        result.box_partly_unseen.push_back(false);
         const BoxSupport s = box_support(b, comp, nullptr, params);
         result.box_scores.push_back(s.score);
         covered += s.inside_area_m2;
@@ -260,6 +264,20 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
             cands.push_back({frame, alt, covered_m2, slot});
           }
         }
+      }
+    }
+    // Boxes completed across edges where the depth ends: all of them, or the last `completed`.
+    bool all_completed = false, completion_tied = false;
+    std::size_t completed = 0;
+    if (cands.empty() && may_complete && !frames.empty()) {
+      // Nothing the outline alone supports: perhaps boxes it cuts where the depth ends.
+      const UnseenCompletion uc = complete_unseen({}, frame_polys[0], frames[0].to_frame(comp_edges), frames[0],
+                                                  formats, *surroundings, params);
+      if (uc.added > 0) {
+        cands.push_back({frames[0], uc.boxes, 0.0, 0});
+        all_completed = true;
+        completion_tied = uc.tied || uc.open;
+        result.completed_unseen += uc.added;
       }
     }
     if (cands.empty()) {
@@ -356,6 +374,21 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
         ambiguous = ambiguous || rr.tied;
       }
     }
+    ambiguous = ambiguous || completion_tied;
+    if (may_complete && !all_completed) {
+      // A search again when part of the outline is unseen may take a tenth of the call's budget
+      // beyond what is left of the component's share.
+      const SearchBudget research{std::max(comp_expansions, params.search_expansions / 10), deadline};
+      const UnseenCompletion uc = complete_unseen(best.boxes, frame_polys[best.orientation],
+                                                  best.frame.to_frame(comp_edges), best.frame, formats, *surroundings,
+                                                  params, &research);
+      result.search_expansions += uc.expansions;
+      expansions_left -= std::min(uc.expansions, expansions_left);
+      best.boxes = uc.boxes;
+      completed = uc.added;
+      ambiguous = ambiguous || uc.tied || uc.open;
+      result.completed_unseen += uc.added;
+    }
     result.score += best.score;
     result.ambiguous = result.ambiguous || ambiguous;
     if (order.size() > 1) {
@@ -386,6 +419,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       result.boxes.push_back(best.frame.to_layer(best.boxes[k], formats));
       result.box_component.push_back(static_cast<int>(ci));
       result.box_scores.push_back(support[k].score);
+      result.box_partly_unseen.push_back(all_completed || k + completed >= best.boxes.size());
     }
   }
   result.coverage = total_area > 0 ? std::min(1.0, covered / total_area) : 0.0;

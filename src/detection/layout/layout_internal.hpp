@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -205,6 +206,10 @@ struct ComponentSolution {
 /// still show their long straight edges; used for corners, orientations and candidate lines.
 PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m);
 
+/// Which outline edges (a -> b, frame coordinates, `out` the unit normal away from the layer)
+/// seed candidate lines; empty = all of them.
+using SeedEdgeFilter = std::function<bool(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& out)>;
+
 /// Product search in one layout frame. `frame_edges` (the simplified outline, same frame) gives
 /// the candidate lines; `frame_polygon` the exact areas. With `seams`, the score subtracts seam
 /// penalties; layouts covering less than `min_outline_score` [m^2] are pruned (so that seams
@@ -212,7 +217,7 @@ PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m)
 ComponentSolution search_product(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
                                  const std::vector<BoxFormat>& formats, const LayoutParams& params,
                                  const SeamTable* seams, const SearchBudget& budget,
-                                 double min_outline_score = -1e300);
+                                 double min_outline_score = -1e300, const SeedEdgeFilter& seed_ok = {});
 
 /// Algorithms 1-3 in the layer frame (no layout frame; the paper's boxes carry their own angle).
 struct PaperSolution {
@@ -225,6 +230,30 @@ struct PaperSolution {
 PaperSolution search_paper(const PolygonWithHoles& polygon, const PolygonWithHoles& edges,
                            const std::vector<BoxFormat>& formats, const LayoutParams& params,
                            const Deadline& deadline);
+
+/// complete_unseen's answer: the boxes given plus those completed across edges where the depth
+/// ends; `tied` when another placement of a completed box explains the view as well.
+struct UnseenCompletion {
+  std::vector<FrameBox> boxes;
+  std::size_t added = 0;
+  bool tied = false;
+  /// Uncovered layer next to where the depth ends that no box could be completed over (too
+  /// little of it seen): the layout there is not determined by the view.
+  bool open = false;
+  /// The layout was searched again with candidate lines from seen edges only: `boxes` replace
+  /// the ones given (the last `added` of them completed).
+  bool researched = false;
+  std::size_t expansions = 0;  ///< node expansions of that search
+};
+
+/// Completes one component's layout (layout frame) with boxes the outline cuts where the depth
+/// ends (LayoutParams::unseen_min_fraction, complete_unseen.cpp). With `research`, when part of
+/// the outline is unseen and the completed layout leaves the layer less than explained, the
+/// component is searched again (within that budget) with candidate lines from seen edges only.
+UnseenCompletion complete_unseen(const std::vector<FrameBox>& boxes, const PolygonWithHoles& frame_polygon,
+                                 const PolygonWithHoles& frame_edges, const LayoutFrame& frame,
+                                 const std::vector<BoxFormat>& formats, const LayerSurroundings& around,
+                                 const LayoutParams& params, const SearchBudget* research = nullptr);
 
 /// Two frame layouts are the same when every box has a twin (same orientation, centres closer
 /// than tol_m).

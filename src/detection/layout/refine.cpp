@@ -27,6 +27,10 @@ namespace {
 /// smallest box height a pallet layer has [m].
 constexpr double kMinDrop_m = 0.1;
 
+/// An outline stretch with nothing seen beyond it within this is where the depth ends, not a box
+/// edge (LayerParams::unobserved_gap_m's default) [m].
+constexpr double kUnseenGap_m = 0.05;
+
 /// Layer points binned in a coarse grid so that each box only visits its neighbourhood.
 class PointGrid {
  public:
@@ -198,7 +202,7 @@ std::vector<double> huber_turn_weights(const std::vector<Turn>& turns) {
 
 LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                            const std::vector<BoxFormat>& formats, const SeamEvidence* seams,
-                           const LayoutParams& params) {
+                           const LayoutParams& params, const LayerSurroundings* surroundings) {
   LayoutResult out = found;
   if (found.status != DetectionStatus::ok || found.boxes.empty()) return out;
   double layer_area = 0;
@@ -328,13 +332,31 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
           std::vector<Eigen::Vector2d> samples;
           double floor_m = 0.3 * lp;
           std::size_t slices = static_cast<std::size_t>((s.hi - s.lo) / (1.5 * lp));
+          // Where the depth ends beyond the outline the box's points end without a box edge.
+          auto seen = [&](std::vector<Eigen::Vector2d> v) {
+            const std::size_t bi = idx[k];
+            if (surroundings == nullptr || surroundings->empty() || bi >= found.box_partly_unseen.size() ||
+                !found.box_partly_unseen[bi])
+              return v;
+            Eigen::Vector2d dir = Eigen::Vector2d::Zero();
+            dir[axis] = sign;
+            const Eigen::Vector2d dir_l = cf.frame.to_layer(dir) - cf.frame.to_layer(Eigen::Vector2d::Zero());
+            std::vector<Eigen::Vector2d> kept;
+            for (const auto& q : v) {
+              Eigen::Vector2d at;
+              at[axis] = q.y() + sign * 0.5 * lp;
+              at[1 - axis] = q.x();
+              if (surroundings->seen_within(cf.frame.to_layer(at), dir_l, kUnseenGap_m)) kept.push_back(q);
+            }
+            return kept;
+          };
           if (!shared || !use_seams) {
-            samples = shifted(outline_samples(s, local[k], lp, window, win_in), shift_outline);
+            samples = shifted(seen(outline_samples(s, local[k], lp, window, win_in)), shift_outline);
           } else {
             // The box's edge of the seam band; where the raster shows none, where the box's own
             // points end (a hole, a gap the seam raster leaves out).
             samples = shifted(seam_samples(s, *seams, cf.frame, window, win_in), shift_seam);
-            const std::vector<Eigen::Vector2d> own = shifted(outline_samples(s, local[k], lp, window, win_in), shift_outline);
+            const std::vector<Eigen::Vector2d> own = shifted(seen(outline_samples(s, local[k], lp, window, win_in)), shift_outline);
             const double reach_t = 1.5 * lp;
             // Slices where the raster shows no band but the box's points end (a hole).
             std::vector<Eigen::Vector2d> extra;
@@ -458,9 +480,18 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
     return r;
   }
   const SeamEvidence seams = build_seam_evidence(frame, cloud, layer);
-  const LayoutResult found = find_layout(layer.polygons, formats, params, &seams);
+  double max_long = 0.0;
+  for (const auto& f : formats) max_long = std::max(max_long, f.long_m);
+  // Only a layer whose outline runs somewhere along pixels without depth or along the image
+  // border can have boxes going on unseen.
+  const LayerDiagnostics& diag = layer.diagnostics;
+  const bool may_go_on = diag.unobserved_outline_fraction > 0.0 || diag.touches_image_border;
+  const LayerSurroundings around = params.unseen_min_fraction > 0.0 && may_go_on
+                                       ? build_layer_surroundings(frame, cloud, layer, max_long)
+                                       : LayerSurroundings{};
+  const LayoutResult found = find_layout(layer.polygons, formats, params, &seams, &around);
   if (!params.refine || params.search == SearchMode::paper) return found;
-  return refine_layout(found, layer, formats, &seams, params);
+  return refine_layout(found, layer, formats, &seams, params, &around);
 }
 
 }  // namespace palletd

@@ -105,7 +105,8 @@ bool ProductSearch::build(std::string* reason) {
       const double len = (b - a).norm();
       if (len < min_edge) continue;
       const double ang = std::atan2(std::abs(b.y() - a.y()), std::abs(b.x() - a.x()));
-      // Left of the direction (dx, dy) is (-dy, dx).
+      // Left of the direction (dx, dy) is (-dy, dx); the layer lies there when orient > 0.
+      if (seed_ok_ && !seed_ok_(a, b, orient * Eigen::Vector2d(b.y() - a.y(), a.x() - b.x()) / len)) continue;
       if (ang < axis_tol) sy[orient * (b.x() - a.x()) > 0 ? 0 : 1].emplace_back((a.y() + b.y()) / 2, len);
       if (ang > M_PI / 2 - axis_tol) sx[orient * (a.y() - b.y()) > 0 ? 0 : 1].emplace_back((a.x() + b.x()) / 2, len);
     }

@@ -203,8 +203,9 @@ ComponentSolution ProductSearch::run() {
 
 ComponentSolution search_product(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
                                  const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                                 const SeamTable* seams, const SearchBudget& budget, double min_outline_score) {
-  product::ProductSearch search(frame_polygon, frame_edges, formats, params, seams, budget, min_outline_score);
+                                 const SeamTable* seams, const SearchBudget& budget, double min_outline_score,
+                                 const SeedEdgeFilter& seed_ok) {
+  product::ProductSearch search(frame_polygon, frame_edges, formats, params, seams, budget, min_outline_score, seed_ok);
   return search.run();
 }
 

@@ -60,9 +60,10 @@ struct QueueItem {
 class ProductSearch {
  public:
   ProductSearch(const PolygonWithHoles& poly, const PolygonWithHoles& edges, const std::vector<BoxFormat>& formats,
-                const LayoutParams& params, const SeamTable* seams, const SearchBudget& budget, double min_outline)
+                const LayoutParams& params, const SeamTable* seams, const SearchBudget& budget, double min_outline,
+                const SeedEdgeFilter& seed_ok)
       : poly_(poly), edges_(edges), formats_(formats), params_(params), seams_(seams), budget_(budget),
-        min_outline_(min_outline) {}
+        min_outline_(min_outline), seed_ok_(seed_ok) {}
 
   ComponentSolution run();
 
@@ -85,6 +86,7 @@ class ProductSearch {
   const SeamTable* seams_;
   const SearchBudget& budget_;
   double min_outline_;  ///< layouts covering less than this [m^2] are pruned
+  const SeedEdgeFilter& seed_ok_;
 
   std::vector<double> xs_, ys_;
   int nx_ = 0, ny_ = 0;

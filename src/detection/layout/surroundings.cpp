@@ -1,0 +1,121 @@
+// The layer's surroundings as the camera saw them (LayerSurroundings): each pixel's viewing ray
+// meets the plane at a layer-frame point; the pixel votes there for `level`, `below` or `unseen`.
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "palletd/layout.hpp"
+
+namespace palletd {
+
+std::uint8_t LayerSurroundings::at_point(const Eigen::Vector2d& p_m) const {
+  if (empty()) return unseen;
+  const double fx = (p_m.x() - origin_m.x()) / cell_m, fy = (p_m.y() - origin_m.y()) / cell_m;
+  if (!(fx >= 0 && fy >= 0 && fx < width && fy < height)) return unseen;
+  return at(static_cast<int>(fx), static_cast<int>(fy));
+}
+
+bool LayerSurroundings::seen_within(const Eigen::Vector2d& p_m, const Eigen::Vector2d& dir,
+                                    double reach_m) const {
+  for (double u = 0.0; u <= reach_m; u += 0.5 * cell_m) {
+    if (at_point(p_m + u * dir) != unseen) return true;
+  }
+  return false;
+}
+
+LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCloud& cloud,
+                                           const LayerResult& layer, double reach_m) {
+  LayerSurroundings out;
+  const Intrinsics& in = frame.intrinsics;
+  if (layer.status != DetectionStatus::ok || layer.polygons.empty() || !in.valid() ||
+      cloud.width != in.width || cloud.height != in.height || cloud.points.size() != frame.pixel_count() ||
+      !(reach_m >= 0.0)) {
+    return out;
+  }
+  double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
+  for (const auto& poly : layer.polygons) {
+    for (const auto& p : poly.outer) {
+      bx0 = std::min(bx0, p.x());
+      bx1 = std::max(bx1, p.x());
+      by0 = std::min(by0, p.y());
+      by1 = std::max(by1, p.y());
+    }
+  }
+  if (!(bx1 > bx0 && by1 > by0)) return out;
+  const Plane& plane = layer.plane_camera;
+  const double pitch = std::abs(plane.d) / std::max(in.fx, in.fy);  // [m per pixel] at the layer
+  out.cell_m = std::clamp(pitch, 0.004, 0.02);
+  out.origin_m = {bx0 - reach_m, by0 - reach_m};
+  out.width = static_cast<int>(std::ceil((bx1 - bx0 + 2 * reach_m) / out.cell_m));
+  out.height = static_cast<int>(std::ceil((by1 - by0 + 2 * reach_m) / out.cell_m));
+  if (out.width <= 0 || out.height <= 0 || static_cast<double>(out.width) * out.height > 4e6) {
+    out = LayerSurroundings{};
+    return out;
+  }
+  // Pixel -> cell where its ray meets the plane (the homography of build_seam_evidence).
+  const Eigen::Isometry3d T_layer_camera = layer.T_camera_layer.inverse();
+  Eigen::Matrix3d K_inv;
+  K_inv << 1.0 / in.fx, 0.0, -in.cx / in.fx, 0.0, 1.0 / in.fy, -in.cy / in.fy, 0.0, 0.0, 1.0;
+  const Eigen::Matrix3d M =
+      -plane.d * T_layer_camera.linear() + T_layer_camera.translation() * plane.normal.transpose();
+  Eigen::Matrix3d H;
+  H.row(0) = (M.row(0) - out.origin_m.x() * plane.normal.transpose()) / out.cell_m;
+  H.row(1) = (M.row(1) - out.origin_m.y() * plane.normal.transpose()) / out.cell_m;
+  H.row(2) = plane.normal.transpose();
+  H = H * K_inv;
+
+  // At the layer's level within the band: boxes of the layer differ in height by millimetres,
+  // a lower layer by a box height.
+  const double band_m = std::max(0.015, layer.diagnostics.passthrough_tolerance_m);
+  std::array<cv::Mat, 3> votes;
+  for (auto& v : votes) v = cv::Mat::zeros(out.height, out.width, CV_32F);
+  for (int v = 0; v < in.height; ++v) {
+    for (int u = 0; u < in.width; ++u) {
+      const double den = H(2, 0) * u + H(2, 1) * v + H(2, 2);
+      if (std::abs(den) < 1e-12 || -plane.d / den <= 0) continue;  // ray parallel or plane behind
+      const double fx = (H(0, 0) * u + H(0, 1) * v + H(0, 2)) / den;
+      const double fy = (H(1, 0) * u + H(1, 1) * v + H(1, 2)) / den;
+      if (!(fx >= 0 && fy >= 0 && fx < out.width && fy < out.height)) continue;
+      const Eigen::Vector3f& p = cloud.at(u, v);
+      int label = LayerSurroundings::unseen;
+      if (std::isfinite(p.x()) && std::isfinite(p.z())) {
+        const double s = plane.signed_distance(p.cast<double>());  // + towards the camera
+        if (s < -band_m) {
+          label = LayerSurroundings::below;
+        } else if (s <= band_m) {
+          label = LayerSurroundings::level;
+        }
+      }
+      votes[static_cast<std::size_t>(label)].at<float>(static_cast<int>(fy), static_cast<int>(fx)) += 1.f;
+    }
+  }
+  // Cells no pixel fell into take their neighbours' votes; cells beyond the image stay unseen.
+  std::array<cv::Mat, 3> near;
+  for (std::size_t k = 0; k < 3; ++k)
+    cv::boxFilter(votes[k], near[k], CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false);
+  out.label.assign(static_cast<std::size_t>(out.width) * static_cast<std::size_t>(out.height),
+                   LayerSurroundings::unseen);
+  for (int y = 0; y < out.height; ++y) {
+    for (int x = 0; x < out.width; ++x) {
+      const bool own = votes[0].at<float>(y, x) + votes[1].at<float>(y, x) + votes[2].at<float>(y, x) > 0.f;
+      const std::array<cv::Mat, 3>& src = own ? votes : near;
+      const float n_unseen = src[0].at<float>(y, x), n_level = src[1].at<float>(y, x),
+                  n_below = src[2].at<float>(y, x);
+      // Seen lower wins a tie with unseen: a box is never completed into a spot seen empty.
+      std::uint8_t label = LayerSurroundings::unseen;
+      if (n_level > n_below && n_level > n_unseen) {
+        label = LayerSurroundings::level;
+      } else if (n_below > 0.f && n_below >= n_unseen) {
+        label = LayerSurroundings::below;
+      }
+      out.label[static_cast<std::size_t>(y) * static_cast<std::size_t>(out.width) +
+                static_cast<std::size_t>(x)] = label;
+    }
+  }
+  return out;
+}
+
+}  // namespace palletd
