@@ -3,7 +3,9 @@
 // a ratio with its cap. Prints markdown tables for docs/benchmarks.md.
 //
 //   palletd_bench_layout [--reps N] [--paper-cap N] [--paper-budget-ms MS]
+//   palletd_bench_layout --unseen [--reps N]   # only the completion table
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -60,6 +62,90 @@ const char* verdict(const KnownLayout& l, const LayoutResult& r) {
   return exact ? "exact" : "WRONG";
 }
 
+/// A 40-box layer whose right column is cut where the depth ends: find_layout without and with
+/// the surroundings (completion).
+void bench_unseen(const LayoutParams& product, int reps) {
+std::printf("\n## Completion where the depth ends, 40-box layer (cut by a line 20 deg off its axis, seams given)\n\n");
+std::printf("| surroundings | median [ms] | CPU [ms] | boxes | completed | result |\n|---|---|---|---|---|---|\n");
+{
+  KnownLayout l = grid_200x150(40);
+  l.theta_rad = 0.15;
+  const std::vector<PolygonWithHoles> full = union_outline(l);
+  const Eigen::Vector2d u(std::cos(l.theta_rad), std::sin(l.theta_rad)), v(-u.y(), u.x());
+  double umax = -1e9, vmin = 1e9;
+  for (const auto& q : full.front().outer) {
+    umax = std::max(umax, q.dot(u));
+    vmin = std::min(vmin, q.dot(v));
+  }
+  // Beyond the cut (f > 0) the depth ends, 20 deg off the layout's axis, from 60 mm off the
+  // bottom right box upwards.
+  const double slope = std::tan(20.0 * M_PI / 180.0);
+  const auto f = [&](const Eigen::Vector2d& q) { return q.dot(u) + slope * (q.dot(v) - vmin) - (umax - 0.06); };
+  PolygonWithHoles cut;
+  const Ring2d& ring = full.front().outer;
+  for (std::size_t i = 0; i < ring.size(); ++i) {  // Sutherland-Hodgman against f <= 0
+    const Eigen::Vector2d a = ring[i], b = ring[(i + 1) % ring.size()];
+    const double fa = f(a), fb = f(b);
+    if (fa <= 0) cut.outer.push_back(a);
+    if ((fa <= 0) != (fb <= 0)) cut.outer.push_back(a + (b - a) * (fa / (fa - fb)));
+  }
+  const auto inside = [&](const Eigen::Vector2d& q) {
+    bool in = false;
+    for (std::size_t i = 0, j = cut.outer.size() - 1; i < cut.outer.size(); j = i++) {
+      const Eigen::Vector2d& a = cut.outer[i];
+      const Eigen::Vector2d& b = cut.outer[j];
+      if ((a.y() > q.y()) != (b.y() > q.y()) && q.x() < (b.x() - a.x()) * (q.y() - a.y()) / (b.y() - a.y()) + a.x())
+        in = !in;
+    }
+    return in;
+  };
+  LayerSurroundings around;
+  around.cell_m = 0.005;
+  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+  for (const auto& q : ring) {
+    x0 = std::min(x0, q.x()); y0 = std::min(y0, q.y()); x1 = std::max(x1, q.x()); y1 = std::max(y1, q.y());
+  }
+  around.origin_m = {x0 - 0.3, y0 - 0.3};
+  around.width = static_cast<int>((x1 - x0 + 0.6) / around.cell_m);
+  around.height = static_cast<int>((y1 - y0 + 0.6) / around.cell_m);
+  around.label.resize(static_cast<std::size_t>(around.width) * static_cast<std::size_t>(around.height));
+  for (int iy = 0; iy < around.height; ++iy) {
+    for (int ix = 0; ix < around.width; ++ix) {
+      const Eigen::Vector2d q = around.origin_m + around.cell_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
+      around.label[static_cast<std::size_t>(iy) * static_cast<std::size_t>(around.width) + static_cast<std::size_t>(ix)] =
+          inside(q) ? LayerSurroundings::level : f(q) > 0 ? LayerSurroundings::unseen : LayerSurroundings::below;
+    }
+  }
+  const std::vector<PolygonWithHoles> outline{cut};
+  // The outline alone ties many layouts of this layer: the seams choose (as in the tables above).
+  const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+  for (bool with : {false, true}) {
+    std::vector<double> ms, cpu;
+    LayoutResult last;
+    for (int i = 0; i < reps; ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = cpu_ms();
+      last = find_layout(outline, l.formats, product, &seams, with ? &around : nullptr);
+      cpu.push_back(cpu_ms() - c0);
+      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+    std::sort(ms.begin(), ms.end());
+    std::sort(cpu.begin(), cpu.end());
+    // Truth boxes found within 15 mm (those the cut leaves 40 % or more of are the target).
+    std::size_t found = 0;
+    for (const Box2d& t : truth_boxes(l)) {
+      for (const Box2d& b : last.boxes) found += (b.center - t.center).norm() < 0.015 ? 1 : 0;
+    }
+    std::printf("| %s | %.2f | %.2f | %zu | %zu | %zu of 40 truth boxes within 15 mm%s |\n", with ? "yes" : "no",
+                ms[ms.size() / 2], cpu[cpu.size() / 2], last.boxes.size(), last.completed_unseen, found,
+                last.ambiguous ? ", ambiguous" : "");
+    if (std::getenv("BENCH_DBG")) {
+      for (const Box2d& b : last.boxes) std::fprintf(stderr, "box %.3f %.3f yaw %.2f\n", b.center.dot(u), b.center.dot(v), b.yaw_rad);
+    }
+  }
+}
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -71,6 +157,12 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[i], "--reps") == 0) reps = std::max(1, std::atoi(argv[i + 1]));
     if (std::strcmp(argv[i], "--paper-cap") == 0) paper_cap = static_cast<std::size_t>(std::atol(argv[i + 1]));
     if (std::strcmp(argv[i], "--paper-budget-ms") == 0) paper_budget_ms = std::atof(argv[i + 1]);
+  }
+  if (argc >= 2 && std::strcmp(argv[1], "--unseen") == 0) {  // only the completion table
+    LayoutParams p;
+    p.time_budget_ms = 1000;
+    bench_unseen(p, reps);
+    return 0;
   }
   if (argc == 2 && std::strcmp(argv[1], "--profile") == 0) {  // one case in a loop, for perf
     KnownLayout l = grid_200x150(40);
@@ -151,5 +243,6 @@ int main(int argc, char** argv) {
       }
     }
   }
+  bench_unseen(product, reps);
   return 0;
 }
