@@ -4,9 +4,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include "layout_internal.hpp"
 
 namespace palletd::layout_detail {
@@ -61,44 +58,6 @@ BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component,
     table = SeamTable(*seams, frame, Rect{-hx - 2 * m, -hy - 2 * m, hx + 2 * m, hy + 2 * m});
   }
   return box_support(box, frame, fp, table.empty() ? nullptr : &table, params);
-}
-
-double largest_uncovered_m2(const PolygonWithHoles& frame_polygon, const std::vector<FrameBox>& boxes, double gap_m) {
-  Rect b{1e300, 1e300, -1e300, -1e300};
-  for (const auto& p : frame_polygon.outer) {
-    b.x0 = std::min(b.x0, p.x()); b.x1 = std::max(b.x1, p.x());
-    b.y0 = std::min(b.y0, p.y()); b.y1 = std::max(b.y1, p.y());
-  }
-  const double cell = 0.005;
-  const int w = static_cast<int>(std::ceil((b.x1 - b.x0) / cell)) + 2, h = static_cast<int>(std::ceil((b.y1 - b.y0) / cell)) + 2;
-  if (!(b.x1 > b.x0) || w <= 0 || h <= 0 || static_cast<double>(w) * h > 4e6) return 0.0;
-  auto to_px = [&](const Eigen::Vector2d& p) {
-    return cv::Point(static_cast<int>(std::lround((p.x() - b.x0) / cell * 16.0)) + 16,
-                     static_cast<int>(std::lround((p.y() - b.y0) / cell * 16.0)) + 16);
-  };
-  auto ring_pts = [&](const Ring2d& ring) {
-    std::vector<cv::Point> pts;
-    for (const auto& p : ring) pts.push_back(to_px(p));
-    return pts;
-  };
-  cv::Mat mask = cv::Mat::zeros(h, w, CV_8U);
-  std::vector<std::vector<cv::Point>> outer{ring_pts(frame_polygon.outer)};
-  cv::fillPoly(mask, outer, cv::Scalar(255), cv::LINE_8, 4);
-  std::vector<std::vector<cv::Point>> holes;
-  for (const auto& hole : frame_polygon.holes) holes.push_back(ring_pts(hole));
-  if (!holes.empty()) cv::fillPoly(mask, holes, cv::Scalar(0), cv::LINE_8, 4);
-  for (const auto& box : boxes) {
-    const cv::Point a = to_px({box.rect.x0, box.rect.y0}), c = to_px({box.rect.x1, box.rect.y1});
-    cv::rectangle(mask, cv::Rect(cv::Point(a.x / 16, a.y / 16), cv::Point(c.x / 16, c.y / 16)), cv::Scalar(0), cv::FILLED);
-  }
-  // Gaps between boxes and slivers along the outline are narrower than gap_m: opened away.
-  const int k = std::max(1, static_cast<int>(std::lround(gap_m / cell)));
-  cv::morphologyEx(mask, mask, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * k + 1, 2 * k + 1)));
-  cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
-  int largest = 0;
-  for (int i = 1; i < n; ++i) largest = std::max(largest, stats.at<int>(i, cv::CC_STAT_AREA));
-  return static_cast<double>(largest) * cell * cell;
 }
 
 }  // namespace palletd::layout_detail
