@@ -348,7 +348,6 @@ UnseenCompletion complete_unseen(const std::vector<FrameBox>& boxes, const Polyg
     const double a = covered_area(c.boxes, frame_polygon);
     if (a > best_covered) {
       best = std::move(c);
-      best.researched = true;
       best_covered = a;
     }
   }

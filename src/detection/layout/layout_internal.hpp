@@ -240,10 +240,9 @@ struct UnseenCompletion {
   /// Uncovered layer next to where the depth ends that no box could be completed over (too
   /// little of it seen): the layout there is not determined by the view.
   bool open = false;
-  /// The layout was searched again with candidate lines from seen edges only: `boxes` replace
-  /// the ones given (the last `added` of them completed).
-  bool researched = false;
-  std::size_t expansions = 0;  ///< node expansions of that search
+  /// Node expansions of a search again with candidate lines from seen edges only (its layout,
+  /// when better explained, replaces the one given in `boxes`; the last `added` completed).
+  std::size_t expansions = 0;
 };
 
 /// Completes one component's layout (layout frame) with boxes the outline cuts where the depth
