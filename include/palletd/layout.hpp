@@ -95,6 +95,10 @@ struct LayoutParams {
   /// share of it is on the layer, two of its sides (one per axis) lie on seen edges of the
   /// outline or on neighbours, and its part off the layer is unseen, not seen lower. 0 = never.
   double unseen_min_fraction = 0.4;
+  /// A piece of a component that no box covers, wider than the gaps between boxes and larger
+  /// than this share of the smallest box, flags the layout ambiguous: the outline is not
+  /// explained there (a wrong tiling, a box of another format). 0 = never.
+  double uncovered_flag_fraction = 0.4;
 };
 
 /// Seam evidence: a raster in the layer frame of how much each spot looks like a gap between

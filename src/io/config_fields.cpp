@@ -119,6 +119,7 @@ const Table<LayoutParams>& layout_table() {
       number("refine_size_tolerance_m", &LayoutParams::refine_size_tolerance_m, Range::closed(0.0, 0.1)),
       number("refine_yaw_sigma_deg", &LayoutParams::refine_yaw_sigma_deg, Range::closed(0.0, 10.0)),
       number("unseen_min_fraction", &LayoutParams::unseen_min_fraction, Range::closed(0.0, 1.0)),
+      number("uncovered_flag_fraction", &LayoutParams::uncovered_flag_fraction, Range::closed(0.0, 10.0)),
   };
   return t;
 }

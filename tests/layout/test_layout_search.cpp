@@ -177,3 +177,40 @@ TEST_CASE("densely sampled jagged outlines keep their corners") {
     CHECK(err < 0.005);
   }
 }
+
+TEST_CASE("pinwheel chirality when the frame's own seams do not show: ambiguous, not picked by lines") {
+  // Two pinwheels side by side. The gaps every candidate layout predicts (the pinwheels' outer
+  // seams, the line between them) are pressed shut: they look like box tops. Faint lines run
+  // where the mirrored pinwheels would have their seams (tape, print on the tops). Measured
+  // against the frame's own seams those lines are not seams, so nothing inside the layer
+  // separates the chiralities; summed along whole edges the lines would pick the mirrors.
+  auto two = [](bool mirrored) {
+    KnownLayout l = pinwheel(0.4, 0.3, mirrored);
+    const auto one = l.boxes;
+    for (TruthBox b : one) {
+      b.x0 += 0.7;
+      l.boxes.push_back(b);
+    }
+    return l;
+  };
+  const KnownLayout l = two(false), mirror = two(true);
+  const SeamEvidence mirror_seams = synthetic_seams(mirror, 0.003, 0.002);
+  const SeamEvidence true_seams = synthetic_seams(l, 0.003, 0.002);
+  REQUIRE(mirror_seams.seam.size() == true_seams.seam.size());
+  SeamEvidence lines = mirror_seams;
+  std::mt19937 rng(5U);
+  std::uniform_real_distribution<float> noise(0.f, 0.05f);
+  for (std::size_t i = 0; i < lines.seam.size(); ++i) {
+    const bool mirror_only = mirror_seams.seam[i] > 0.5f && true_seams.seam[i] < 0.5f;
+    lines.seam[i] = (mirror_only ? 0.3f : 0.f) + noise(rng);
+  }
+  lines.strength = 0.1;
+  const LayoutResult r = find_layout(union_outline(l), l.formats, params_for_tests(), &lines);
+  REQUIRE(r.status == DetectionStatus::ok);
+  CHECK(r.ambiguous);
+  // Real seams (every gap open) decide, for the layout they show.
+  const LayoutResult c = find_layout(union_outline(l), l.formats, params_for_tests(), &mirror_seams);
+  REQUIRE(c.status == DetectionStatus::ok);
+  CHECK_FALSE(c.ambiguous);
+  CHECK(match_error(truth_boxes(mirror), c.boxes) >= 0.0);
+}

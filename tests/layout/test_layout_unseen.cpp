@@ -130,3 +130,22 @@ TEST_CASE("a piece of a box with the depth ending on every side: its place is op
   REQUIRE(r.completed_unseen == 1);
   CHECK(r.ambiguous);
 }
+
+TEST_CASE("a piece of the layer no box covers, larger than uncovered_flag_fraction of a box, flags the layout") {
+  // Two 400x300 boxes and a 230 x 230 mm piece beside them (44 % of a box): the boxes are found,
+  // the piece stays uncovered, the layout is in doubt there.
+  const std::vector<PolygonWithHoles> layer{
+      polygon({{0, 0}, {0.8, 0}, {0.8, 0.3}, {0.23, 0.3}, {0.23, 0.53}, {0, 0.53}})};
+  LayoutParams p;
+  const LayoutResult r = find_layout(layer, kFormats, p, nullptr);
+  REQUIRE(r.status == DetectionStatus::ok);
+  CHECK(r.boxes.size() == 2);
+  CHECK(r.ambiguous);
+  p.uncovered_flag_fraction = 0.6;  // the piece is smaller than that
+  CHECK_FALSE(find_layout(layer, kFormats, p, nullptr).ambiguous);
+  p.uncovered_flag_fraction = 0.0;  // off
+  CHECK_FALSE(find_layout(layer, kFormats, p, nullptr).ambiguous);
+  // The two boxes alone: the gap-wide slivers of a perturbed outline flag nothing.
+  const std::vector<PolygonWithHoles> pair{polygon({{0, 0}, {0.8, 0}, {0.8, 0.3}, {0, 0.3}})};
+  CHECK_FALSE(find_layout(perturb(pair, 0.003, 0.008, 7U), kFormats, LayoutParams{}, nullptr).ambiguous);
+}

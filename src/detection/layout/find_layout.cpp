@@ -338,6 +338,10 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
             if (i != w) order.push_back(near[i]);
           ambiguous = margin_nats < SeamLikelihood::decisive_nats(min_short);
           decided = true;
+        } else if (lik.measured()) {
+          // The seams were measured and do not stand out of the box tops: nothing inside the
+          // layer tells these layouts apart (the older agreement would pick one by noise).
+          decided = true;
         }
       }
     }
@@ -388,6 +392,13 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       completed = uc.added;
       ambiguous = ambiguous || uc.tied || uc.open;
       result.completed_unseen += uc.added;
+    }
+    // A piece of the layer that no box covers and that is more than a gap: the outline is not
+    // explained, so the layout is in doubt there (a box of another format, or the wrong tiling).
+    if (params.uncovered_flag_fraction > 0.0 &&
+        largest_uncovered_m2(frame_polys[best.orientation], best.boxes, 0.02) >=
+            params.uncovered_flag_fraction * min_box_area) {
+      ambiguous = true;
     }
     result.score += best.score;
     result.ambiguous = result.ambiguous || ambiguous;

@@ -23,4 +23,8 @@ BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component,
 BoxSupport box_support(const Box2d& box, const LayoutFrame& frame, const PolygonWithHoles& frame_polygon,
                        const SeamTable* table, const LayoutParams& params);
 
+/// Largest connected piece of the component (layout frame) that no box covers, the gaps between
+/// boxes left out (pieces narrower than gap_m vanish) [m^2].
+double largest_uncovered_m2(const PolygonWithHoles& frame_polygon, const std::vector<FrameBox>& boxes, double gap_m);
+
 }  // namespace palletd::layout_detail

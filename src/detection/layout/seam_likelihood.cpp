@@ -123,6 +123,7 @@ std::map<SeamLikelihood::PieceKey, double> SeamLikelihood::pieces(const std::vec
 
 bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& candidates) {
   usable_ = false;
+  measured_ = false;
   axis_seams_[0] = axis_seams_[1] = 0;
   if (empty() || candidates.empty()) return false;
   std::vector<std::map<PieceKey, double>> all;
@@ -172,6 +173,7 @@ bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& 
     }
   }
   if (seam_c.size() < 4 || null_c.size() < 8) return false;
+  measured_ = true;
   mu0_ = median_of(null_c);
   mu1_ = median_of(seam_c);
   const double sep = mu1_ - mu0_;

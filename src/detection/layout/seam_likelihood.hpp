@@ -36,6 +36,8 @@ class SeamLikelihood {
   /// predicts. Returns false when the seams are not distinguishable from the box tops.
   bool calibrate(const std::vector<const std::vector<FrameBox>*>& candidates);
   [[nodiscard]] bool usable() const { return usable_; }
+  /// The last calibration had enough reference pieces to judge the seams (usable() or not).
+  [[nodiscard]] bool measured() const { return measured_; }
 
   /// Evidence [nats] that layout a rather than b explains the seams (antisymmetric).
   [[nodiscard]] double compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const;
@@ -80,6 +82,7 @@ class SeamLikelihood {
   double mu0_ = 0, sigma0_ = 0, mu1_ = 0, sigma1_ = 0;
   std::size_t axis_seams_[2] = {0, 0};  ///< seam reference pieces per axis ([1]: vertical lines)
   bool usable_ = false;
+  bool measured_ = false;
 };
 
 /// An outline-equal change of a layout: the boxes `remove` (indices) give way to `add`, which
