@@ -110,13 +110,8 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   if (layout.status != DetectionStatus::ok) return finish(layout.status, layout.reason);
 
   // Stage 8: poses in the camera and base frames, pick order.
-  out.boxes = to_detected_boxes(layout.boxes, layout.box_scores, out.layer.T_camera_layer, frame.T_base_camera,
-                                params.pick_order);
-  for (DetectedBox& d : out.boxes) {
-    for (std::size_t i = 0; i < layout.boxes.size() && i < layout.box_partly_unseen.size(); ++i) {
-      if (layout.box_partly_unseen[i] && (layout.boxes[i].center - d.in_layer.center).norm() < 1e-9) d.partly_unseen = true;
-    }
-  }
+  out.boxes = to_detected_boxes(layout.boxes, layout.box_scores, layout.box_partly_unseen, out.layer.T_camera_layer,
+                                frame.T_base_camera, params.pick_order);
   // The layer's warnings (an outline along invalid depth) stay with a successful frame.
   std::string message = out.layer.reason;
   if (layout.completed_unseen > 0) {

@@ -59,6 +59,7 @@ void assign_pick_order(std::vector<DetectedBox>& boxes, PickOrder order) {
 }  // namespace
 
 std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, const std::vector<double>& scores,
+                                           const std::vector<bool>& partly_unseen,
                                            const Eigen::Isometry3d& T_camera_layer,
                                            const std::optional<Eigen::Isometry3d>& T_base_camera,
                                            PickOrder order) {
@@ -76,6 +77,7 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, cons
     d.short_m = b.short_m;
     d.format = b.format;
     d.score = i < scores.size() ? scores[i] : 0.0;
+    d.partly_unseen = i < partly_unseen.size() && partly_unseen[i];
     if (T_base_camera) {
       d.base_position = *T_base_camera * d.center;
       d.base_yaw_deg = axis_yaw_deg(T_base_camera->linear() * d.long_axis);

@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "layer_raster.hpp"
 #include "palletd/layout.hpp"
 
 namespace palletd {
@@ -33,38 +34,15 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
       cloud.points.size() != frame.pixel_count()) {
     return ev;
   }
-  double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
-  for (const auto& poly : layer.polygons) {
-    for (const auto& p : poly.outer) {
-      bx0 = std::min(bx0, p.x()); bx1 = std::max(bx1, p.x());
-      by0 = std::min(by0, p.y()); by1 = std::max(by1, p.y());
-    }
-  }
-  if (!(bx1 > bx0 && by1 > by0)) return ev;
   const Plane& plane = layer.plane_camera;
-  const double pitch = std::abs(plane.d) / std::max(in.fx, in.fy);  // [m per pixel] at the layer
-  ev.cell_m = params.cell_m > 0 ? params.cell_m : std::clamp(pitch, 0.001, 0.01);
-  const double margin = 0.02;
-  ev.origin_m = {bx0 - margin, by0 - margin};
-  ev.width = static_cast<int>(std::ceil((bx1 - bx0 + 2 * margin) / ev.cell_m));
-  ev.height = static_cast<int>(std::ceil((by1 - by0 + 2 * margin) / ev.cell_m));
-  if (ev.width <= 0 || ev.height <= 0 || static_cast<double>(ev.width) * ev.height > 4e6) {
-    ev = SeamEvidence{};
-    return ev;
-  }
-
-  // Pixel -> layer point where its ray meets the plane, as one homography H (pixel -> cell):
-  // q = (R r (-d) + t (n . r)) / (n . r) with r = K^-1 (u, v, 1); the ray is used, not the
-  // measured point, so that pixels without depth land where they belong.
-  const Eigen::Isometry3d T_layer_camera = layer.T_camera_layer.inverse();
-  Eigen::Matrix3d K_inv;
-  K_inv << 1.0 / in.fx, 0.0, -in.cx / in.fx, 0.0, 1.0 / in.fy, -in.cy / in.fy, 0.0, 0.0, 1.0;
-  const Eigen::Matrix3d M = -plane.d * T_layer_camera.linear() + T_layer_camera.translation() * plane.normal.transpose();
-  Eigen::Matrix3d H;
-  H.row(0) = (M.row(0) - ev.origin_m.x() * plane.normal.transpose()) / ev.cell_m;
-  H.row(1) = (M.row(1) - ev.origin_m.y() * plane.normal.transpose()) / ev.cell_m;
-  H.row(2) = plane.normal.transpose();
-  H = H * K_inv;
+  const double pitch = layout_detail::layer_pixel_pitch_m(in, layer);
+  const auto geo = layout_detail::layer_raster_geometry(
+      in, layer, params.cell_m > 0 ? params.cell_m : std::clamp(pitch, 0.001, 0.01), 0.02);
+  if (!geo) return ev;
+  ev.cell_m = geo->cell_m;
+  ev.origin_m = geo->origin_m;
+  ev.width = geo->width;
+  ev.height = geo->height;
   const auto W = static_cast<std::size_t>(ev.width);
   // Only the inside of the outline counts: the outline itself is no seam.
   cv::Mat mask = cv::Mat::zeros(ev.height, ev.width, CV_8U);
@@ -90,14 +68,10 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
   std::vector<int> cell_of(frame.pixel_count(), -1);
   for (int v = 0; v < in.height; ++v) {
     for (int u = 0; u < in.width; ++u) {
-      const double den = H(2, 0) * u + H(2, 1) * v + H(2, 2);  // n . r
-      if (std::abs(den) < 1e-12 || -plane.d / den <= 0) continue;  // ray parallel or plane behind
-      const double fx = (H(0, 0) * u + H(0, 1) * v + H(0, 2)) / den;
-      const double fy = (H(1, 0) * u + H(1, 1) * v + H(1, 2)) / den;
-      if (!(fx >= 0 && fy >= 0 && fx < ev.width && fy < ev.height)) continue;
+      double fx = 0.0, fy = 0.0;
+      if (!geo->cell_of(u, v, &fx, &fy)) continue;
       const int cx = static_cast<int>(fx);
       const int cy = static_cast<int>(fy);
-      if (cx < 0 || cy < 0 || cx >= ev.width || cy >= ev.height) continue;
       cell_of[static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) + static_cast<std::size_t>(u)] =
           cy * ev.width + cx;
     }

@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "layer_raster.hpp"
 #include "palletd/layout.hpp"
 
 namespace palletd {
@@ -35,37 +36,14 @@ LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCl
       !(reach_m >= 0.0)) {
     return out;
   }
-  double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
-  for (const auto& poly : layer.polygons) {
-    for (const auto& p : poly.outer) {
-      bx0 = std::min(bx0, p.x());
-      bx1 = std::max(bx1, p.x());
-      by0 = std::min(by0, p.y());
-      by1 = std::max(by1, p.y());
-    }
-  }
-  if (!(bx1 > bx0 && by1 > by0)) return out;
   const Plane& plane = layer.plane_camera;
-  const double pitch = std::abs(plane.d) / std::max(in.fx, in.fy);  // [m per pixel] at the layer
-  out.cell_m = std::clamp(pitch, 0.004, 0.02);
-  out.origin_m = {bx0 - reach_m, by0 - reach_m};
-  out.width = static_cast<int>(std::ceil((bx1 - bx0 + 2 * reach_m) / out.cell_m));
-  out.height = static_cast<int>(std::ceil((by1 - by0 + 2 * reach_m) / out.cell_m));
-  if (out.width <= 0 || out.height <= 0 || static_cast<double>(out.width) * out.height > 4e6) {
-    out = LayerSurroundings{};
-    return out;
-  }
-  // Pixel -> cell where its ray meets the plane (the homography of build_seam_evidence).
-  const Eigen::Isometry3d T_layer_camera = layer.T_camera_layer.inverse();
-  Eigen::Matrix3d K_inv;
-  K_inv << 1.0 / in.fx, 0.0, -in.cx / in.fx, 0.0, 1.0 / in.fy, -in.cy / in.fy, 0.0, 0.0, 1.0;
-  const Eigen::Matrix3d M =
-      -plane.d * T_layer_camera.linear() + T_layer_camera.translation() * plane.normal.transpose();
-  Eigen::Matrix3d H;
-  H.row(0) = (M.row(0) - out.origin_m.x() * plane.normal.transpose()) / out.cell_m;
-  H.row(1) = (M.row(1) - out.origin_m.y() * plane.normal.transpose()) / out.cell_m;
-  H.row(2) = plane.normal.transpose();
-  H = H * K_inv;
+  const auto geo = layout_detail::layer_raster_geometry(
+      in, layer, std::clamp(layout_detail::layer_pixel_pitch_m(in, layer), 0.004, 0.02), reach_m);
+  if (!geo) return out;
+  out.cell_m = geo->cell_m;
+  out.origin_m = geo->origin_m;
+  out.width = geo->width;
+  out.height = geo->height;
 
   // At the layer's level within the band: boxes of the layer differ in height by millimetres,
   // a lower layer by a box height.
@@ -74,11 +52,8 @@ LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCl
   for (auto& v : votes) v = cv::Mat::zeros(out.height, out.width, CV_32F);
   for (int v = 0; v < in.height; ++v) {
     for (int u = 0; u < in.width; ++u) {
-      const double den = H(2, 0) * u + H(2, 1) * v + H(2, 2);
-      if (std::abs(den) < 1e-12 || -plane.d / den <= 0) continue;  // ray parallel or plane behind
-      const double fx = (H(0, 0) * u + H(0, 1) * v + H(0, 2)) / den;
-      const double fy = (H(1, 0) * u + H(1, 1) * v + H(1, 2)) / den;
-      if (!(fx >= 0 && fy >= 0 && fx < out.width && fy < out.height)) continue;
+      double fx = 0.0, fy = 0.0;
+      if (!geo->cell_of(u, v, &fx, &fy)) continue;
       const Eigen::Vector3f& p = cloud.at(u, v);
       int label = LayerSurroundings::unseen;
       if (std::isfinite(p.x()) && std::isfinite(p.z())) {

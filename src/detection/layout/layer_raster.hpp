@@ -1,0 +1,43 @@
+// Private to the layout stage: the geometry shared by the rasters built from a frame in the layer
+// frame (seam evidence, surroundings): their extent over the layer's outline and the map from a
+// pixel to the cell where its viewing ray meets the layer plane.
+#pragma once
+
+#include <cmath>
+#include <optional>
+
+#include <Eigen/Core>
+
+#include "palletd/frame.hpp"
+#include "palletd/layer.hpp"
+
+namespace palletd::layout_detail {
+
+struct LayerRasterGeometry {
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< layer-frame corner of cell (0, 0) [m]
+  double cell_m = 0.0;                                 ///< cell side [m]
+  int width = 0, height = 0;                           ///< cells
+  Eigen::Matrix3d H_cell_pixel = Eigen::Matrix3d::Zero();  ///< (u, v, 1) -> cell, homogeneous
+  double plane_d = 0.0;                                ///< the layer plane's offset (camera frame)
+
+  /// Cell coordinates (fractional) where the ray of pixel (u, v) meets the plane; false when the
+  /// ray is parallel to the plane, the plane lies behind the camera, or the point is off the raster.
+  bool cell_of(int u, int v, double* fx, double* fy) const {
+    const double den = H_cell_pixel(2, 0) * u + H_cell_pixel(2, 1) * v + H_cell_pixel(2, 2);  // n . r
+    if (std::abs(den) < 1e-12 || -plane_d / den <= 0) return false;
+    *fx = (H_cell_pixel(0, 0) * u + H_cell_pixel(0, 1) * v + H_cell_pixel(0, 2)) / den;
+    *fy = (H_cell_pixel(1, 0) * u + H_cell_pixel(1, 1) * v + H_cell_pixel(1, 2)) / den;
+    return *fx >= 0 && *fy >= 0 && *fx < width && *fy < height;
+  }
+};
+
+/// The raster over the bounding box of the layer's outer rings grown by margin_m on each side,
+/// with cells of cell_m; nullopt when the layer has no extent or the raster would exceed 4e6 cells.
+/// `layer` must be ok with polygons, `in` valid.
+std::optional<LayerRasterGeometry> layer_raster_geometry(const Intrinsics& in, const LayerResult& layer,
+                                                         double cell_m, double margin_m);
+
+/// The layer's pixel pitch at its plane [m per pixel].
+double layer_pixel_pitch_m(const Intrinsics& in, const LayerResult& layer);
+
+}  // namespace palletd::layout_detail
