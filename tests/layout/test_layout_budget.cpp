@@ -147,3 +147,36 @@ TEST_CASE("mixed formats: a seam missing along an axis without reference seams i
   REQUIRE(b.status == DetectionStatus::ok);
   CHECK(b.ambiguous);
 }
+
+TEST_CASE("seam likelihood: a missing seam weighs at most half of a clear one") {
+  // Row of 400 x 300 (A) and turned 300 x 200 (B) boxes, axis-aligned: A A | B B | A A, all
+  // seams open. A split of an A into two Bs predicts a seam that is not there; merging the two
+  // Bs into an A misses one that is. Both pieces of evidence run 300 mm; gaps can be pressed
+  // shut, so the first must count for less (at most half) than the second.
+  const std::vector<BoxFormat> formats{{0.4, 0.3, "A"}, {0.3, 0.2, "B"}};
+  KnownLayout l{"row", formats, {}, 0.0, Eigen::Vector2d::Zero(), 0.0};
+  l.boxes = {{0.0, 0.0, 0, true}, {0.4, 0.0, 0, true}, {0.8, 0.0, 1, false},
+             {1.0, 0.0, 1, false}, {1.2, 0.0, 0, true}, {1.6, 0.0, 0, true}};
+  const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+  const auto outline = union_outline(l);
+  REQUIRE(outline.size() == 1);
+  auto fb = [](double x0, double x1, int format, bool along_x) {
+    return FrameBox{Rect{x0, 0.0, x1, 0.3}, format, along_x};
+  };
+  const std::vector<FrameBox> truth{fb(0.0, 0.4, 0, true), fb(0.4, 0.8, 0, true), fb(0.8, 1.0, 1, false),
+                                    fb(1.0, 1.2, 1, false), fb(1.2, 1.6, 0, true), fb(1.6, 2.0, 0, true)};
+  std::vector<FrameBox> split = truth;  // the first A as two Bs: a seam at x = 0.2 not seen
+  split[0] = fb(0.0, 0.2, 1, false);
+  split.insert(split.begin() + 1, fb(0.2, 0.4, 1, false));
+  std::vector<FrameBox> merged = truth;  // the two Bs as one A: the seam at x = 1.0 missed
+  merged[2] = fb(0.8, 1.2, 0, true);
+  merged.erase(merged.begin() + 3);
+  SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012);
+  REQUIRE(lik.calibrate({&truth, &split, &merged}));
+  const double against_missing = lik.compare(truth, split);  // split predicts the missing seam
+  const double for_present = lik.compare(truth, merged);     // truth predicts the present seam
+  INFO("missing " << against_missing << " present " << for_present);
+  CHECK(for_present > SeamLikelihood::decisive_nats(0.2));
+  CHECK(against_missing > 0.0);
+  CHECK(against_missing <= 0.55 * for_present);
+}

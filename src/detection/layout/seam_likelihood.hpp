@@ -6,7 +6,8 @@
 // contrast (seam raster on the line against the box tops beside it) is compared with two
 // distributions taken from the frame itself: "no seam" from lines across box interiors that no
 // candidate predicts as a seam, and "seam" from the seams every candidate predicts (so pressed
-// boxes with faint gaps calibrate themselves). Each piece gives a capped log-likelihood ratio;
+// boxes with faint gaps calibrate themselves). Each piece gives a capped log-likelihood ratio (a
+// missing seam capped at half a clear one: gaps can be pressed shut);
 // each maximal run of pieces where two layouts disagree counts with the median of its pieces
 // times its length, so short interior edges (tape, labels) and scattered dropouts do not decide.
 // When the frame's seams are not distinguishable from its box tops, the evidence is zero and the
