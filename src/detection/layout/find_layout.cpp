@@ -312,6 +312,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     std::vector<std::size_t> order = near;
     bool ambiguous = near.size() > 1;
     bool decided = false;
+    bool seams_invisible = false;  // measured, and not standing out of the box tops
     if (near.size() > 1 && have_seams) {
       // Seam likelihood among the near-equal layouts of one layout frame (the usual case): the
       // pieces where two layouts disagree decide, against noise levels taken from the frame.
@@ -340,8 +341,9 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
           decided = true;
         } else if (lik.measured()) {
           // The seams were measured and do not stand out of the box tops: nothing inside the
-          // layer tells these layouts apart (the older agreement would pick one by noise).
-          decided = true;
+          // layer tells these layouts apart. The older agreement below still picks the best
+          // guess, but cannot settle it.
+          seams_invisible = true;
         }
       }
     }
@@ -352,7 +354,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
         agree[n] = t == nullptr ? 0.0 : seam_agreement(cands[n].boxes, *t, frame_polys[cands[n].orientation], params);
       }
       std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return agree[a] > agree[b]; });
-      ambiguous = agree[order[0]] - agree[order[1]] < kSeamSeparation * min_short;
+      ambiguous = seams_invisible || agree[order[0]] - agree[order[1]] < kSeamSeparation * min_short;
     }
     Candidate best = cands[order.front()];
     // Outline-equal footprint moves (a box or two turned into other boxes of the recipe on the
