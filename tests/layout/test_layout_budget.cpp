@@ -179,4 +179,32 @@ TEST_CASE("seam likelihood: a missing seam weighs at most half of a clear one") 
   CHECK(for_present > SeamLikelihood::decisive_nats(0.2));
   CHECK(against_missing > 0.0);
   CHECK(against_missing <= 0.55 * for_present);
+  // Capped below what decides, absent seams alone never decide; a present one still does.
+  lik.cap_absent_evidence(0.5 * SeamLikelihood::decisive_nats(0.2));
+  CHECK(lik.compare(truth, split) == Approx(0.5 * SeamLikelihood::decisive_nats(0.2)));
+  CHECK(lik.compare(truth, merged) == Approx(for_present));
+}
+
+TEST_CASE("seam likelihood: candidates sharing no seam calibrate on the strongest of their seams") {
+  // A lone pinwheel and its mirror image share no interior seam: the reference comes from the
+  // strongest half of both candidates' pieces, and the seams of the true one decide.
+  for (bool mirrored : {false, true}) {
+    const KnownLayout l = pinwheel(0.4, 0.3, mirrored);
+    const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+    const auto outline = union_outline(l);
+    REQUIRE(outline.size() == 1);
+    auto frame_boxes = [](const KnownLayout& k) {
+      std::vector<FrameBox> out;
+      for (const TruthBox& b : k.boxes) {
+        const BoxFormat& f = k.formats[static_cast<std::size_t>(b.format)];
+        const double w = b.long_along_x ? f.long_m : f.short_m, h = b.long_along_x ? f.short_m : f.long_m;
+        out.push_back({Rect{b.x0, b.y0, b.x0 + w, b.y0 + h}, b.format, b.long_along_x});
+      }
+      return out;
+    };
+    const std::vector<FrameBox> right = frame_boxes(l), other = frame_boxes(pinwheel(0.4, 0.3, !mirrored));
+    SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012);
+    REQUIRE(lik.calibrate({&right, &other}));
+    CHECK(lik.compare(right, other) > SeamLikelihood::decisive_nats(0.3));
+  }
 }

@@ -124,8 +124,21 @@ static void check_bundled_frames(const std::vector<std::string>& stems) {
 }
 
 TEST_CASE("detect() gets bundled block, interlock and chimney frames exactly") {
-  check_bundled_frames({"01_block_600x400_o3d303", "03_interlock_400x300_o3d303", "07_chimney_315x232_ind_o3d303",
-                        "12_block_300x200_holes_o3d303", "20_interlock_400x300_blaze101", "22_block_600x400_xtion"});
+  check_bundled_frames({"01_block_600x400_o3d303", "03_interlock_400x300_o3d303", "12_block_300x200_holes_o3d303",
+                        "20_interlock_400x300_blaze101", "22_block_600x400_xtion"});
+}
+
+// Outline-tied frames whose seams do not settle the choice: the layout must be right, and may be
+// flagged. 07 (noisy profile): its chimney's candidates share almost no seam, and the seams
+// (contrast 0.56) stand out of its box tops by less than 3 noise levels (0.21). 08: the layout
+// the seams pick differs from another only by seams that are absent, which alone never decide.
+TEST_CASE("detect() gets bundled outline-tied frames right, flagged or not") {
+  for (const char* name : {"07_chimney_315x232_ind_o3d303", "08_mixed_600x400_400x300_o3d303"}) {
+    INFO(name);
+    const BundledRun run = run_bundled(name);
+    CHECK(run.eval.status == "ok");
+    CHECK(run.eval.exact);
+  }
 }
 
 TEST_CASE("detect() resolves the bundled pinwheel's chirality from its seams") {
@@ -140,10 +153,10 @@ TEST_CASE("detect() on the bundled mixed-format frame: exact, or flagged ambiguo
   CHECK((run.eval.exact || run.eval.ambiguous));
 }
 
-// Brick 05 (176x132) and mixed 08: exact since the deterministic search budget, the footprint
-// moves decided by the seams (08) and the corner recovery at coarse pitch (05).
-TEST_CASE("detect() gets bundled brick and mixed frames exactly") {
-  check_bundled_frames({"05_brick_300x200_o3d303-small", "08_mixed_600x400_400x300_o3d303"});
+// Brick 05 (176x132): exact since the deterministic search budget and the corner recovery at
+// coarse pitch.
+TEST_CASE("detect() gets the bundled brick frame exactly") {
+  check_bundled_frames({"05_brick_300x200_o3d303-small"});
 }
 
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {

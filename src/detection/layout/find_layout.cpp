@@ -44,6 +44,9 @@ Eigen::Vector2d centroid_of(const Ring2d& ring) {
 /// Two hypotheses whose seam agreement differs by less than this share of the shortest box
 /// side [m of seam line] are not separated by the seams (-> ambiguous).
 constexpr double kSeamSeparation = 0.3;
+/// Seams predicted and absent count together for at most this share of the decisive evidence:
+/// alone they never decide (a gap can be pressed shut), a seam that shows must.
+constexpr double kAbsentShare = 0.9;
 
 Rect bounds_of(const PolygonWithHoles& p) {
   Rect b{1e300, 1e300, -1e300, -1e300};
@@ -322,6 +325,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       if (one_frame) {
         const double tol = params.line_merge_tol_m > 0 ? params.line_merge_tol_m : std::clamp(0.06 * min_short, 0.006, 0.02);
         SeamLikelihood lik(*seams, frames[slot], frame_polys[slot], tol, params.seam_margin_m);
+        lik.cap_absent_evidence(kAbsentShare * SeamLikelihood::decisive_nats(min_short));
         std::vector<const std::vector<FrameBox>*> layouts;
         for (std::size_t n : near) layouts.push_back(&cands[n].boxes);
         if (lik.calibrate(layouts)) {
@@ -373,6 +377,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
           for (std::size_t n : near) {
             if (cands[n].orientation == best.orientation) calibration.push_back(&cands[n].boxes);
           }
+          lik->cap_absent_evidence(kAbsentShare * SeamLikelihood::decisive_nats(min_short));
           lik->calibrate(calibration);
         }
         const RetileResult rr =

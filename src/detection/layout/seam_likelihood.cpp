@@ -145,6 +145,21 @@ bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& 
       ++axis_seams_[key.vertical ? 1 : 0];
     }
   }
+  // Candidates that share (almost) no seam, as a lone pinwheel and its mirror image: one of them
+  // is right, so the strongest 1/k of all their predicted pieces stand for the seams.
+  if (seam_c.size() < 4 && candidates.size() > 1) {
+    std::map<PieceKey, double> any;
+    for (const auto& mp : all) any.insert(mp.begin(), mp.end());
+    std::vector<std::pair<double, bool>> by_contrast;  // (contrast, vertical)
+    for (const auto& [key, pos] : any) by_contrast.emplace_back(contrast(key, pos), key.vertical);
+    std::sort(by_contrast.begin(), by_contrast.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    seam_c.clear();
+    axis_seams_[0] = axis_seams_[1] = 0;
+    for (std::size_t i = 0; i < by_contrast.size() / candidates.size(); ++i) {
+      seam_c.push_back(by_contrast[i].first);
+      ++axis_seams_[by_contrast[i].second ? 1 : 0];
+    }
+  }
   // No-seam reference: lines at a quarter and three quarters across each box of every
   // candidate, away from every predicted seam (a half-box line is a seam in brick patterns).
   std::vector<std::pair<bool, double>> seam_lines;  // (vertical, pos)
@@ -222,7 +237,7 @@ double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector
   for (const auto& [k, pos] : pb)
     if (pa.count(k) == 0) diff.push_back({k, pos, -1});
   std::sort(diff.begin(), diff.end(), [](const Diff& x, const Diff& y) { return x.key < y.key; });
-  double d = 0.0;
+  double d = 0.0, absent = 0.0;
   for (std::size_t i = 0; i < diff.size();) {
     std::size_t j = i + 1;
     while (j < diff.size() && diff[j].sign == diff[i].sign && diff[j].key.vertical == diff[i].key.vertical &&
@@ -231,10 +246,17 @@ double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector
     }
     std::vector<double> v;
     for (std::size_t t = i; t < j; ++t) v.push_back(llr(contrast(diff[t].key, diff[t].pos), diff[t].key.vertical));
-    d += diff[i].sign * static_cast<double>(j - i) * median_of(std::move(v));
+    const double run = diff[i].sign * static_cast<double>(j - i) * median_of(std::move(v));
+    // Runs whose predicted seam is absent (evidence against the layout predicting it) add up
+    // apart: together they are capped (cap_absent_evidence).
+    if (diff[i].sign * run < 0) {
+      absent += run;
+    } else {
+      d += run;
+    }
     i = j;
   }
-  return d;
+  return d + std::clamp(absent, -absent_cap_, absent_cap_);
 }
 
 }  // namespace palletd::layout_detail

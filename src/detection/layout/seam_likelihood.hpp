@@ -33,8 +33,10 @@ class SeamLikelihood {
   [[nodiscard]] bool empty() const { return w_ == 0; }
 
   /// Calibrates the two contrast distributions from the candidates (all of the same frame):
-  /// pieces every candidate predicts as seams, and lines across box interiors no candidate
-  /// predicts. Returns false when the seams are not distinguishable from the box tops.
+  /// pieces every candidate predicts as seams (when they share fewer than four, the strongest
+  /// 1/k of the pieces the k candidates predict: one of them is right), and lines across box
+  /// interiors no candidate predicts. Returns false when the seams are not distinguishable from
+  /// the box tops.
   bool calibrate(const std::vector<const std::vector<FrameBox>*>& candidates);
   [[nodiscard]] bool usable() const { return usable_; }
   /// The last calibration had enough reference pieces to judge the seams (usable() or not).
@@ -42,6 +44,10 @@ class SeamLikelihood {
 
   /// Evidence [nats] that layout a rather than b explains the seams (antisymmetric).
   [[nodiscard]] double compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const;
+  /// Caps the summed evidence of seams that are predicted and absent [nats] (none by default).
+  /// Set below decisive_nats, absent seams alone never decide: a gap can be pressed shut, so a
+  /// decision needs a seam that shows.
+  void cap_absent_evidence(double nats) { absent_cap_ = nats; }
 
   /// Evidence that decides [nats]: a clear seam along half of the shortest box side.
   [[nodiscard]] static double decisive_nats(double min_short_m);
@@ -84,6 +90,7 @@ class SeamLikelihood {
   std::size_t axis_seams_[2] = {0, 0};  ///< seam reference pieces per axis ([1]: vertical lines)
   bool usable_ = false;
   bool measured_ = false;
+  double absent_cap_ = 1e300;
 };
 
 /// An outline-equal change of a layout: the boxes `remove` (indices) give way to `add`, which
