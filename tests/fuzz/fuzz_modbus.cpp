@@ -62,15 +62,55 @@ Expected expected_replies(const std::string& stream) {
   return e;
 }
 
-/// Sends `stream` on a new connection and returns everything the server sent back before closing.
-std::string exchange(std::uint16_t port, const std::string& stream) {
+/// A loopback source address of its own per input (127.x.y.z, never 127.0.0.1). Every exchange
+/// half-closes first, so the client side of each connection ends in TIME_WAIT for a minute; at
+/// thousands of inputs a second one source address runs out of ephemeral ports (connect fails
+/// with EADDRNOTAVAIL, the listener's bind(0) with EADDRINUSE). Spreading the clients over the
+/// 127/8 block keeps both free; the server only sees a peer address, which the read-only option
+/// names.
+std::string next_source_address() {
+  static std::uint32_t counter = 0;
+  const std::uint32_t n = counter++ % (254U * 254U * 254U);
+  return "127." + std::to_string(1 + n / (254U * 254U)) + "." + std::to_string(1 + (n / 254U) % 254U) +
+         "." + std::to_string(1 + n % 254U);
+}
+
+std::string errno_text(const std::string& what) { return what + ": " + std::strerror(errno); }
+
+/// Connects a new socket from `source` to the server; EINTR (libFuzzer's timers) waits for the
+/// connection to complete instead of failing.
+int connect_from(const std::string& source, std::uint16_t port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) fail("socket");
+  if (fd < 0) fail(errno_text("socket"));
+  const int on = 1;
+  ::setsockopt(fd, IPPROTO_IP, IP_BIND_ADDRESS_NO_PORT, &on, sizeof on);  // port chosen at connect
+  sockaddr_in local{};
+  local.sin_family = AF_INET;
+  if (::inet_pton(AF_INET, source.c_str(), &local.sin_addr) != 1) fail("source address " + source);
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&local), sizeof local) != 0) fail(errno_text("bind " + source));
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(port);
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) fail("connect");
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) return fd;
+  if (errno != EINTR && errno != EINPROGRESS) fail(errno_text("connect from " + source));
+  pollfd p{fd, POLLOUT, 0};
+  while (::poll(&p, 1, 5000) < 0) {
+    if (errno != EINTR) fail(errno_text("poll (connect)"));
+  }
+  int error = 0;
+  socklen_t length = sizeof error;
+  ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &error, &length);
+  if ((p.revents & POLLOUT) == 0 || error != 0) {
+    errno = error != 0 ? error : ETIMEDOUT;
+    fail(errno_text("connect from " + source));
+  }
+  return fd;
+}
+
+/// Sends `stream` on a new connection and returns everything the server sent back before closing.
+std::string exchange(const std::string& source, std::uint16_t port, const std::string& stream) {
+  const int fd = connect_from(source, port);
   std::string received;
   char buffer[4096];
   std::size_t sent = 0;
@@ -84,7 +124,7 @@ std::string exchange(std::uint16_t port, const std::string& stream) {
     pollfd p{fd, static_cast<short>(POLLIN | (write_closed ? 0 : POLLOUT)), 0};
     if (::poll(&p, 1, 100) < 0) {
       if (errno == EINTR) continue;  // libFuzzer's own timers
-      fail("poll");
+      fail(errno_text("poll"));
     }
     if ((p.revents & POLLOUT) != 0 && !write_closed) {
       const ssize_t n = ::send(fd, stream.data() + sent, stream.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
@@ -176,12 +216,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   ServerOptions server_options;
   server_options.port = 0;
   server_options.unit_id = (options & 8) != 0 ? 0 : 1;
-  if ((options & 4) != 0) server_options.read_only = {"127.0.0.1"};
+  const std::string source = next_source_address();
+  if ((options & 4) != 0) server_options.read_only = {source};
   server_options.max_connections = 4;
   server_options.handshake.word_order =
       (options & 16) != 0 ? WordOrder::kLowWordFirst : WordOrder::kHighWordFirst;
   ModbusServer server(server_options);
-  if (!server.start().ok()) fail("server start");
+  if (const palletd::Status started = server.start(); !started.ok()) fail("server start: " + started.error());
   auto status = std::make_shared<ServiceStatus>();
   status->ready = (options & 1) != 0;
   status->camera_ok = (options & 2) != 0;
@@ -197,7 +238,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::uint8_t tag = in.u8();
     if (tag == 'S') {
       const std::string stream = in.bytes(in.u16());
-      const std::string replies = exchange(server.port(), stream);
+      const std::string replies = exchange(source, server.port(), stream);
       check_replies(stream, replies);
       collect_events();
     } else if (tag == 'R') {
