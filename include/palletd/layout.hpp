@@ -23,8 +23,9 @@
 // ambiguity margin; seam agreement (seam length along shared box edges minus seam length across
 // box interiors, integrated along whole edges) then chooses among those near-equal hypotheses.
 // `ambiguous` is set only when the seams cannot separate them. The seam raster is noise-aware
-// (depth threshold from the plane noise, intensity gradients against their robust noise level);
-// scattered dropouts, tape and labels are suppressed by the line filter along the layout axes.
+// (depth threshold from the plane noise, dark lines in the intensity image against its noise);
+// intensity steps (labels, print, tape edges) are no seams, and scattered dropouts are suppressed
+// by the line filter along the layout axes.
 //
 // Paper mode (SearchMode::paper): Algorithms 1-3 as published (breadth-first queue, every
 // orthogonal corner, four stacking ways), capped by paper_max_hypotheses and the time budget.
@@ -102,7 +103,8 @@ struct LayoutParams {
 };
 
 /// Seam evidence: a raster in the layer frame of how much each spot looks like a gap between
-/// boxes (0 = flat box top, 1 = seam: depth below the plane, no measurement, intensity edge).
+/// boxes (0 = flat box top, 1 = seam: depth below the plane, no measurement, a dark line in the
+/// intensity image).
 struct SeamEvidence {
   Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< layer-frame corner of cell (0, 0) [m]
   double cell_m = 0.003;                               ///< cell size [m]
@@ -126,10 +128,10 @@ struct SeamParams {
   /// the MAD of the layer pixels' plane residuals [m].
   double depth_step_m = 0.004;
   double depth_noise_k = 3.0;
-  double intensity_weight = 0.8;  ///< weight of the intensity gradient (0 = ignore intensity)
-  /// An intensity gradient starts to look like an edge above intensity_noise_k times its robust
-  /// noise level on the layer (from the median gradient magnitude), fully at twice that.
-  double intensity_noise_k = 4.0;
+  double intensity_weight = 0.8;  ///< weight of dark lines in the intensity image (0 = ignore intensity)
+  /// A dark line (darker than the pixels on both sides of it) starts to look like a seam when it
+  /// is intensity_noise_k times the intensity noise on the layer deep, fully at twice that.
+  double intensity_noise_k = 3.0;
 };
 
 /// Builds the seam raster from the frame (depth, optional intensity), its organized cloud and

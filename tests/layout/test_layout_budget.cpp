@@ -208,3 +208,32 @@ TEST_CASE("seam likelihood: candidates sharing no seam calibrate on the stronges
     CHECK(lik.compare(right, other) > SeamLikelihood::decisive_nats(0.3));
   }
 }
+
+TEST_CASE("seam likelihood: a faint trace on clean box tops decides nothing") {
+  // Clean box tops are exactly 0 in the raster (its depth and dark-line parts start above a
+  // noise threshold), so their spread is 0. Seams showing at 2 % of a full seam are no evidence
+  // however clean the tops: measured, not usable (the layout is flagged). At 30 % they decide.
+  const KnownLayout l = pinwheel(0.4, 0.3, false);
+  const auto outline = union_outline(l);
+  REQUIRE(outline.size() == 1);
+  auto frame_boxes = [](const KnownLayout& k) {
+    std::vector<FrameBox> out;
+    for (const TruthBox& b : k.boxes) {
+      const BoxFormat& f = k.formats[static_cast<std::size_t>(b.format)];
+      const double w = b.long_along_x ? f.long_m : f.short_m, h = b.long_along_x ? f.short_m : f.long_m;
+      out.push_back({Rect{b.x0, b.y0, b.x0 + w, b.y0 + h}, b.format, b.long_along_x});
+    }
+    return out;
+  };
+  const std::vector<FrameBox> right = frame_boxes(l), other = frame_boxes(pinwheel(0.4, 0.3, true));
+  for (const float scale : {0.02f, 0.3f}) {
+    INFO("seams at " << scale << " of a full seam");
+    SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+    for (float& v : seams.seam) v *= scale;
+    SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012);
+    const bool usable = lik.calibrate({&right, &other});
+    CHECK(lik.measured());
+    CHECK(usable == (scale > 0.1f));
+    if (usable) CHECK(lik.compare(right, other) > SeamLikelihood::decisive_nats(0.3));
+  }
+}

@@ -26,6 +26,9 @@ struct Noise {
   double sigma_m = 0.0;    ///< depth noise
   double dropout = 0.0;    ///< share of pixels without measurement
   unsigned seed = 1;
+  /// A bright label (100 x 70 mm, intensity 2600 on tops of 2000) on every box, its long edge
+  /// label_inset_m inside the box's +short side and parallel to it; 0 = no labels.
+  double label_inset_m = 0.0;
 };
 
 Scene render(const KnownLayout& l, bool gaps_visible, bool with_intensity = false, Noise noise = {}) {
@@ -57,6 +60,17 @@ Scene render(const KnownLayout& l, bool gaps_visible, bool with_intensity = fals
   s.cloud.width = in.width;
   s.cloud.height = in.height;
   s.cloud.points.assign(s.frame.pixel_count(), Eigen::Vector3f::Constant(NAN));
+  auto on_label = [&](const Eigen::Vector2d& p) {
+    if (!(noise.label_inset_m > 0)) return false;
+    for (const auto& b : truth) {
+      const double c = std::cos(b.yaw_rad), sn = std::sin(b.yaw_rad);
+      const Eigen::Vector2d d = p - b.center;
+      const double along = c * d.x() + sn * d.y(), across = -sn * d.x() + c * d.y();
+      const double edge = b.short_m / 2 - noise.label_inset_m;
+      if (std::abs(along) <= 0.05 && across <= edge && across >= edge - 0.07) return true;
+    }
+    return false;
+  };
   auto inside_box = [&](const Eigen::Vector2d& p) {
     for (const auto& b : truth) {
       const double c = std::cos(b.yaw_rad), sn = std::sin(b.yaw_rad);
@@ -76,7 +90,7 @@ Scene render(const KnownLayout& l, bool gaps_visible, bool with_intensity = fals
       const std::size_t i = static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) + static_cast<std::size_t>(u);
       if (inside_box(layer_xy)) {
         z = 1.5;
-        if (with_intensity) s.frame.intensity[i] = 2000;
+        if (with_intensity) s.frame.intensity[i] = on_label(layer_xy) ? 2600 : 2000;
         s.layer.points_2d.emplace_back(static_cast<float>(layer_xy.x()), static_cast<float>(layer_xy.y()));
         s.layer.point_pixels.push_back(static_cast<std::int32_t>(i));
       } else if (clipped_area(s.layer.polygons[0], layer_xy.x() - 1e-4, layer_xy.y() - 1e-4, layer_xy.x() + 1e-4,
@@ -170,6 +184,48 @@ TEST_CASE("intensity edges alone resolve the pinwheel when depth shows no gap") 
     CHECK_FALSE(r.ambiguous);
     CHECK(match_error(truth_boxes(l), r.boxes) >= 0.0);
   }
+}
+
+TEST_CASE("labels near box sides: their edges are no seams, the dark gaps are") {
+  // Depth shows no gap; the intensity shows the gaps as dark lines and, on every box, a bright
+  // label whose edge runs 20 mm inside a side. A label's edges are steps, not lines darker than
+  // both sides: they must not look like seams, or the refinement takes them for box sides.
+  const KnownLayout l = centred_pinwheel(false);
+  const Scene s = render(l, false, true, Noise{0.0, 0.0, 1U, 0.02});
+  const SeamEvidence ev = build_seam_evidence(s.frame, s.cloud, s.layer);
+  REQUIRE_FALSE(ev.empty());
+  auto value_at = [&](const Eigen::Vector2d& p) {
+    const int ix = static_cast<int>((p.x() - ev.origin_m.x()) / ev.cell_m);
+    const int iy = static_cast<int>((p.y() - ev.origin_m.y()) / ev.cell_m);
+    return ev.at(ix, iy);
+  };
+  // Strongest raster value across a line at `inset` inside each box's +short side, sampled
+  // along the label's length.
+  auto line_peak = [&](const Box2d& b, double inset_m) {
+    const Eigen::Vector2d along(std::cos(b.yaw_rad), std::sin(b.yaw_rad)), across(-along.y(), along.x());
+    double weakest = 1.0;  // the weakest of the samples along the line, each the peak across it
+    for (double t = -0.04; t <= 0.04; t += 0.01) {
+      float peak = 0.f;
+      for (double o = -0.004; o <= 0.004; o += 0.001)
+        peak = std::max(peak, value_at(b.center + t * along + (b.short_m / 2 - inset_m + o) * across));
+      weakest = std::min(weakest, static_cast<double>(peak));
+    }
+    return weakest;
+  };
+  for (const auto& b : truth_boxes(l)) {
+    CHECK(line_peak(b, 0.02) < 0.2);          // the label's outer edge
+    CHECK(line_peak(b, 0.09) < 0.2);          // its inner edge
+  }
+  // The gaps between boxes stand out: somewhere along each box's shared sides.
+  CHECK(ev.strength > 0.003);
+  LayoutParams p;
+  p.time_budget_ms = 500;
+  const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
+  REQUIRE(r.status == DetectionStatus::ok);
+  CHECK_FALSE(r.ambiguous);
+  const double err = match_error(truth_boxes(l), r.boxes);
+  CHECK(err >= 0.0);
+  CHECK(err < 0.003);
 }
 
 TEST_CASE("solve_layout on rendered layers: exact layouts, centres within 3 mm") {

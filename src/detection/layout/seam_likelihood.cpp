@@ -14,10 +14,11 @@ namespace {
 
 constexpr double kPiece_m = 0.02;  ///< length of one piece of predicted seam [m]
 constexpr double kKey_m = 0.001;   ///< line positions closer than this are the same line [m]
+constexpr double kNullSigmaFloor = 0.02;  ///< smallest noise of a piece's contrast [raster units]
 /// Cap of one piece's log-likelihood ratio [nats] (odds of 20:1): no single spot decides.
 constexpr double kPieceCap = 3.0;
 /// Cap of a piece's evidence against a seam [nats]: a seam that is there shows (a gap, the dip
-/// of two bevelled edges, an intensity edge), but one that does not show may be a gap pressed
+/// of two bevelled edges, a dark line in the intensity), but one that does not show may be a gap pressed
 /// shut, so a missing seam weighs at most half of a clear one. Measured on the generated sets
 /// (docs/benchmarks.md, session 6): 0.5 turns an outline-tied layout picked wrong by missing
 /// seams into a flagged one and changes nothing else; 0.3 flags one more wrong one but five
@@ -200,8 +201,10 @@ bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& 
   mu1_ = median_of(seam_c);
   const double sep = mu1_ - mu0_;
   // Noise floors: a share of the separation keeps a noise-free raster from giving unbounded
-  // odds; 1e-3 of a full seam is below any meaningful contrast.
-  sigma0_ = std::max({mad_sigma(null_c, mu0_), 0.05 * std::abs(sep), 1e-3});
+  // odds. Clean box tops are exactly 0 in the raster (its depth and dark-line parts start above
+  // a noise threshold), so the MAD can vanish: 2 % of a full seam keeps a trace a few cells
+  // wide from standing "many sigma" out of them.
+  sigma0_ = std::max({mad_sigma(null_c, mu0_), 0.05 * std::abs(sep), kNullSigmaFloor});
   sigma1_ = std::max(mad_sigma(seam_c, mu1_), sigma0_);
   // Seams must stand out of the box tops by several noise levels to decide anything.
   usable_ = sep >= 3.0 * sigma0_;

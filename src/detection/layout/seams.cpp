@@ -1,7 +1,9 @@
-// Seam evidence: gaps between boxes as depth below the plane, missing depth or intensity edges,
+// Seam evidence: gaps between boxes as depth below the plane, missing depth or dark intensity lines,
 // resampled into a raster in the layer frame.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -21,6 +23,30 @@ double median_abs_deviation(std::vector<double> v) {
   for (double& x : v) x = std::abs(x - med);
   std::nth_element(v.begin(), mid, v.end());
   return *mid;
+}
+
+/// How much darker pixel (u, v) is than both pixels r = 1 or 2 away on either side of it, across
+/// a line along the row, the column or a diagonal (the largest of the eight) [intensity counts];
+/// 0 where it is not darker than both, and within two pixels of the image border. A gap between
+/// boxes is a dark line in the amplitude image (the gap returns less light than the tops on
+/// either side of it); a step (a label, print, tape, a box of another shade) is darker on one
+/// side only and gives nothing, where an edge detector answers both alike and draws seams along
+/// every label.
+float dark_line_depth(const std::vector<std::uint16_t>& inten, int width, int height, int u, int v) {
+  constexpr int kAcross[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
+  constexpr int kReach = 2;  // pixels
+  if (u < kReach || v < kReach || u >= width - kReach || v >= height - kReach) return 0.f;
+  const auto at = [&](int x, int y) {
+    return static_cast<float>(inten[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)]);
+  };
+  const float c = at(u, v);
+  float best = 0.f;
+  for (const auto& d : kAcross) {
+    for (int r = 1; r <= kReach; ++r) {
+      best = std::max(best, std::min(at(u + r * d[0], v + r * d[1]), at(u - r * d[0], v - r * d[1])) - c);
+    }
+  }
+  return best;
 }
 
 }  // namespace
@@ -91,29 +117,21 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
   const double step = std::max(params.depth_step_m, params.depth_noise_k * (std::isfinite(sigma_m) ? sigma_m : 0.0));
   ev.depth_threshold_m = step;
 
-  // Intensity gradient magnitude, normalised by its robust noise level on the layer (the median
-  // gradient magnitude is noise: for Gaussian noise it is 1.18 sigma of a gradient component).
-  cv::Mat grad;
-  double grad_sigma = 0.0;
-  if (frame.has_intensity() && params.intensity_weight > 0 &&
-      frame.intensity.size() == frame.pixel_count()) {
-    cv::Mat inten(in.height, in.width, CV_16U, const_cast<std::uint16_t*>(frame.intensity.data()));
-    cv::Mat f, gx, gy;
-    inten.convertTo(f, CV_32F);
-    cv::Sobel(f, gx, CV_32F, 1, 0, 3);
-    cv::Sobel(f, gy, CV_32F, 0, 1, 3);
-    cv::magnitude(gx, gy, grad);
-    std::vector<double> sample;
-    for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
+  // Dark lines in the intensity image, against the intensity noise on the layer (from the MAD of
+  // neighbouring pixels' differences, which the tops' shading does not reach).
+  double intensity_sigma = 0.0;
+  if (frame.has_intensity() && params.intensity_weight > 0 && frame.intensity.size() == frame.pixel_count()) {
+    std::vector<double> diffs;
+    const auto width = static_cast<std::size_t>(in.width);
+    for (std::size_t pix = 0; pix + 1 < cell_of.size(); ++pix) {
       const int c = cell_of[pix];
-      if (c < 0 || mask.at<std::uint8_t>(c / ev.width, c % ev.width) == 0) continue;
-      sample.push_back(grad.at<float>(static_cast<int>(pix)));
+      if (c < 0 || cell_of[pix + 1] < 0 || (pix + 1) % width == 0) continue;
+      if (mask.at<std::uint8_t>(c / ev.width, c % ev.width) == 0) continue;
+      diffs.push_back(static_cast<double>(frame.intensity[pix + 1]) - static_cast<double>(frame.intensity[pix]));
     }
-    if (sample.size() >= 20) {
-      const auto k = sample.size() / 2;
-      std::nth_element(sample.begin(), sample.begin() + static_cast<long>(k), sample.end());
+    if (diffs.size() >= 20) {
       // A floor of one count keeps noise-free (synthetic) intensity from dividing by zero.
-      grad_sigma = std::max(sample[k] / 1.18, 1.0);
+      intensity_sigma = std::max(1.4826 * median_abs_deviation(std::move(diffs)) / std::sqrt(2.0), 1.0);
     }
   }
 
@@ -132,8 +150,10 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
       const double below = -plane.signed_distance(p.cast<double>());
       s = static_cast<float>(std::clamp((below - step) / step, 0.0, 1.0));
     }
-    if (grad_sigma > 0) {
-      const double z = grad.at<float>(static_cast<int>(pix)) / grad_sigma;
+    if (intensity_sigma > 0) {
+      const int u = static_cast<int>(pix % static_cast<std::size_t>(in.width));
+      const int v = static_cast<int>(pix / static_cast<std::size_t>(in.width));
+      const double z = dark_line_depth(frame.intensity, in.width, in.height, u, v) / intensity_sigma;
       s = std::max(s, static_cast<float>(params.intensity_weight * std::clamp((z - g_lo) / g_lo, 0.0, 1.0)));
     }
     const auto c = static_cast<std::size_t>(cell);
