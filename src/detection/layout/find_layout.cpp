@@ -48,15 +48,6 @@ constexpr double kSeamSeparation = 0.3;
 /// alone they never decide (a gap can be pressed shut), a seam that shows must.
 constexpr double kAbsentShare = 0.9;
 
-Rect bounds_of(const PolygonWithHoles& p) {
-  Rect b{1e300, 1e300, -1e300, -1e300};
-  for (const auto& v : p.outer) {
-    b.x0 = std::min(b.x0, v.x()); b.x1 = std::max(b.x1, v.x());
-    b.y0 = std::min(b.y0, v.y()); b.y1 = std::max(b.y1, v.y());
-  }
-  return b;
-}
-
 /// Median of the seam values of 4 cm pieces along a line [0, 1]; `value(piece)` reads a piece.
 template <typename ValueFn>
 double median_along(double lo, double hi, ValueFn&& value) {

@@ -4,7 +4,10 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
 #include <optional>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -39,5 +42,19 @@ std::optional<LayerRasterGeometry> layer_raster_geometry(const Intrinsics& in, c
 
 /// The layer's pixel pitch at its plane [m per pixel].
 double layer_pixel_pitch_m(const Intrinsics& in, const LayerResult& layer);
+
+// Binary cell rasters (one byte per cell, 0 or 1, row-major, w x h), worked on the caller's
+// thread: OpenCV's morphology and labelling spread over its worker threads, and the detection
+// library runs none of its own.
+
+/// Erosion with a (2k+1)^2 square: a cell stays 1 when every cell within k of it is 1; cells
+/// beyond the raster count as 0.
+void erode_square(std::vector<std::uint8_t>& cells, int w, int h, int k);
+
+/// Morphological opening with a (2k+1)^2 square: pieces narrower than 2k+1 cells vanish.
+void open_square(std::vector<std::uint8_t>& cells, int w, int h, int k);
+
+/// Cells of the largest 8-connected piece of 1s (the pieces are marked 2 on the way).
+std::size_t largest_piece_cells(std::vector<std::uint8_t>& cells, int w, int h);
 
 }  // namespace palletd::layout_detail

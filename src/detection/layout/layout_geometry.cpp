@@ -109,6 +109,15 @@ double overlap(const Rect& a, const Rect& b) {
   return (w > 0 && h > 0) ? w * h : 0.0;
 }
 
+Rect bounds_of(const PolygonWithHoles& polygon) {
+  Rect b{1e300, 1e300, -1e300, -1e300};
+  for (const auto& v : polygon.outer) {
+    b.x0 = std::min(b.x0, v.x()); b.x1 = std::max(b.x1, v.x());
+    b.y0 = std::min(b.y0, v.y()); b.y1 = std::max(b.y1, v.y());
+  }
+  return b;
+}
+
 Eigen::Vector2d LayoutFrame::to_frame(const Eigen::Vector2d& p) const {
   const double c = std::cos(theta_rad), s = std::sin(theta_rad);
   const Eigen::Vector2d d = p - pivot;

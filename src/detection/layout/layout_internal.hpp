@@ -20,6 +20,8 @@ struct Rect {
   [[nodiscard]] double area() const { return (x1 - x0) * (y1 - y0); }
 };
 double overlap(const Rect& a, const Rect& b);
+/// Bounding rectangle of a polygon's outer ring (x0 > x1 when the ring is empty).
+Rect bounds_of(const PolygonWithHoles& polygon);
 
 /// A box placed in the layout frame.
 struct FrameBox {

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "layer_raster.hpp"
 #include "layout_internal.hpp"
 
 namespace palletd::layout_detail {
@@ -65,76 +66,8 @@ BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component,
   return box_support(box, frame, fp, table.empty() ? nullptr : &table, params);
 }
 
-namespace {
-
-// One pass of a (2k+1)-wide window along rows (dx=1) or columns: a cell keeps 1 when every cell
-// of its window is 1 (erode) or any is (dilate); outside the raster counts as 0.
-void window_pass(std::vector<std::uint8_t>& cells, int w, int h, int k, bool along_rows, bool erode) {
-  const int n = along_rows ? w : h, lines = along_rows ? h : w;
-  std::vector<int> ones(static_cast<std::size_t>(n) + 1);
-  std::vector<std::uint8_t> out(static_cast<std::size_t>(n));
-  auto at = [&](int line, int i) -> std::uint8_t& {
-    const int x = along_rows ? i : line, y = along_rows ? line : i;
-    return cells[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)];
-  };
-  for (int line = 0; line < lines; ++line) {
-    for (int i = 0; i < n; ++i) ones[static_cast<std::size_t>(i) + 1] = ones[static_cast<std::size_t>(i)] + at(line, i);
-    for (int i = 0; i < n; ++i) {
-      const int lo = std::max(0, i - k), hi = std::min(n, i + k + 1);
-      const int count = ones[static_cast<std::size_t>(hi)] - ones[static_cast<std::size_t>(lo)];
-      out[static_cast<std::size_t>(i)] = erode ? (count == 2 * k + 1 ? 1 : 0) : (count > 0 ? 1 : 0);
-    }
-    for (int i = 0; i < n; ++i) at(line, i) = out[static_cast<std::size_t>(i)];
-  }
-}
-
-// Morphological opening with a (2k+1)^2 square: pieces narrower than 2k+1 cells vanish.
-void open_square(std::vector<std::uint8_t>& cells, int w, int h, int k) {
-  window_pass(cells, w, h, k, true, true);
-  window_pass(cells, w, h, k, false, true);
-  window_pass(cells, w, h, k, true, false);
-  window_pass(cells, w, h, k, false, false);
-}
-
-// Cells of the largest 8-connected piece of 1s.
-std::size_t largest_piece_cells(std::vector<std::uint8_t>& cells, int w, int h) {
-  std::size_t largest = 0;
-  std::vector<int> stack;
-  for (int start = 0; start < w * h; ++start) {
-    if (cells[static_cast<std::size_t>(start)] != 1) continue;
-    std::size_t area = 0;
-    cells[static_cast<std::size_t>(start)] = 2;
-    stack.push_back(start);
-    while (!stack.empty()) {
-      const int c = stack.back();
-      stack.pop_back();
-      ++area;
-      const int cx = c % w, cy = c / w;
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int x = cx + dx, y = cy + dy;
-          if (x < 0 || y < 0 || x >= w || y >= h) continue;
-          auto& v = cells[static_cast<std::size_t>(y * w + x)];
-          if (v == 1) {
-            v = 2;
-            stack.push_back(y * w + x);
-          }
-        }
-      }
-    }
-    largest = std::max(largest, area);
-  }
-  return largest;
-}
-
-}  // namespace
-
 double largest_uncovered_m2(const PolygonWithHoles& frame_polygon, const std::vector<FrameBox>& boxes, double gap_m) {
-  Rect b{1e300, 1e300, -1e300, -1e300};
-  for (const auto& p : frame_polygon.outer) {
-    b.x0 = std::min(b.x0, p.x()); b.x1 = std::max(b.x1, p.x());
-    b.y0 = std::min(b.y0, p.y()); b.y1 = std::max(b.y1, p.y());
-  }
+  const Rect b = bounds_of(frame_polygon);
   const double cell = 0.005;
   const int w = static_cast<int>(std::ceil((b.x1 - b.x0) / cell)) + 2, h = static_cast<int>(std::ceil((b.y1 - b.y0) / cell)) + 2;
   if (!(b.x1 > b.x0) || w <= 0 || h <= 0 || static_cast<double>(w) * h > 4e6) return 0.0;
@@ -147,9 +80,11 @@ double largest_uncovered_m2(const PolygonWithHoles& frame_polygon, const std::ve
     for (const auto& p : ring) pts.push_back(to_px(p));
     return pts;
   };
-  cv::Mat mask = cv::Mat::zeros(h, w, CV_8U);
+  // The layer less its boxes, drawn straight into the cells (the Mat is a view of them).
+  std::vector<std::uint8_t> cells(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0);
+  cv::Mat mask(h, w, CV_8U, cells.data());
   std::vector<std::vector<cv::Point>> outer{ring_pts(frame_polygon.outer)};
-  cv::fillPoly(mask, outer, cv::Scalar(255), cv::LINE_8, 4);
+  cv::fillPoly(mask, outer, cv::Scalar(1), cv::LINE_8, 4);
   std::vector<std::vector<cv::Point>> holes;
   for (const auto& hole : frame_polygon.holes) holes.push_back(ring_pts(hole));
   if (!holes.empty()) cv::fillPoly(mask, holes, cv::Scalar(0), cv::LINE_8, 4);
@@ -158,14 +93,7 @@ double largest_uncovered_m2(const PolygonWithHoles& frame_polygon, const std::ve
     cv::rectangle(mask, cv::Rect(cv::Point(a.x / 16, a.y / 16), cv::Point(c.x / 16, c.y / 16)), cv::Scalar(0), cv::FILLED);
   }
   // Gaps between boxes and slivers along the outline are narrower than gap_m: opened away.
-  // Done here on one thread: OpenCV's morphology and labelling spread over its worker threads,
-  // and the detection library runs on the caller's thread only.
   const int k = std::max(1, static_cast<int>(std::lround(gap_m / cell)));
-  std::vector<std::uint8_t> cells(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
-  for (int y = 0; y < h; ++y) {
-    const auto* row = mask.ptr<std::uint8_t>(y);
-    for (int x = 0; x < w; ++x) cells[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] = row[x] != 0 ? 1 : 0;
-  }
   open_square(cells, w, h, k);
   return static_cast<double>(largest_piece_cells(cells, w, h)) * cell * cell;
 }

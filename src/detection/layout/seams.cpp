@@ -71,7 +71,8 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
   ev.height = geo->height;
   const auto W = static_cast<std::size_t>(ev.width);
   // Only the inside of the outline counts: the outline itself is no seam.
-  cv::Mat mask = cv::Mat::zeros(ev.height, ev.width, CV_8U);
+  std::vector<std::uint8_t> mask_cells(W * static_cast<std::size_t>(ev.height), 0);
+  cv::Mat mask(ev.height, ev.width, CV_8U, mask_cells.data());  // a view of mask_cells
   auto to_pts = [&](const Ring2d& ring) {
     std::vector<cv::Point> pts;
     for (const auto& p : ring) {
@@ -88,7 +89,7 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
     if (!holes.empty()) cv::fillPoly(mask, holes, cv::Scalar(0), cv::LINE_8, 4);
   }
   // Cells on the outline mix box tops with the floor around: keep two cells clear of it.
-  cv::erode(mask, mask, cv::Mat(), cv::Point(-1, -1), 2);
+  layout_detail::erode_square(mask_cells, ev.width, ev.height, 2);
 
   // Pass 1: which pixels fall inside the layer, and the noise of depth and intensity there.
   std::vector<int> cell_of(frame.pixel_count(), -1);
