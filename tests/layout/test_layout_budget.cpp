@@ -34,6 +34,17 @@ KnownLayout mixed_rows() {
   return l;
 }
 
+/// A known layout's boxes as frame boxes (the layout frame is the layout's own).
+std::vector<FrameBox> frame_boxes(const KnownLayout& k) {
+  std::vector<FrameBox> out;
+  for (const TruthBox& b : k.boxes) {
+    const BoxFormat& f = k.formats[static_cast<std::size_t>(b.format)];
+    const double w = b.long_along_x ? f.long_m : f.short_m, h = b.long_along_x ? f.short_m : f.long_m;
+    out.push_back({Rect{b.x0, b.y0, b.x0 + w, b.y0 + h}, b.format, b.long_along_x});
+  }
+  return out;
+}
+
 }  // namespace
 
 TEST_CASE("the expansion budget gives the same result twice, whatever the clock") {
@@ -193,15 +204,6 @@ TEST_CASE("seam likelihood: candidates sharing no seam calibrate on the stronges
     const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
     const auto outline = union_outline(l);
     REQUIRE(outline.size() == 1);
-    auto frame_boxes = [](const KnownLayout& k) {
-      std::vector<FrameBox> out;
-      for (const TruthBox& b : k.boxes) {
-        const BoxFormat& f = k.formats[static_cast<std::size_t>(b.format)];
-        const double w = b.long_along_x ? f.long_m : f.short_m, h = b.long_along_x ? f.short_m : f.long_m;
-        out.push_back({Rect{b.x0, b.y0, b.x0 + w, b.y0 + h}, b.format, b.long_along_x});
-      }
-      return out;
-    };
     const std::vector<FrameBox> right = frame_boxes(l), other = frame_boxes(pinwheel(0.4, 0.3, !mirrored));
     SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012);
     REQUIRE(lik.calibrate({&right, &other}));
@@ -216,15 +218,6 @@ TEST_CASE("seam likelihood: a faint trace on clean box tops decides nothing") {
   const KnownLayout l = pinwheel(0.4, 0.3, false);
   const auto outline = union_outline(l);
   REQUIRE(outline.size() == 1);
-  auto frame_boxes = [](const KnownLayout& k) {
-    std::vector<FrameBox> out;
-    for (const TruthBox& b : k.boxes) {
-      const BoxFormat& f = k.formats[static_cast<std::size_t>(b.format)];
-      const double w = b.long_along_x ? f.long_m : f.short_m, h = b.long_along_x ? f.short_m : f.long_m;
-      out.push_back({Rect{b.x0, b.y0, b.x0 + w, b.y0 + h}, b.format, b.long_along_x});
-    }
-    return out;
-  };
   const std::vector<FrameBox> right = frame_boxes(l), other = frame_boxes(pinwheel(0.4, 0.3, true));
   for (const float scale : {0.02f, 0.3f}) {
     INFO("seams at " << scale << " of a full seam");

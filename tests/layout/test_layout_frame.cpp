@@ -123,6 +123,20 @@ KnownLayout centred_pinwheel(bool mirrored) {
   return l;
 }
 
+/// solve_layout on a rendered scene must give one unflagged layout whose centres lie within
+/// max_err_m of the truth; returns it for further checks.
+LayoutResult solve_unflagged(const KnownLayout& l, const Scene& s, double max_err_m) {
+  LayoutParams p;
+  p.time_budget_ms = 500;
+  const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
+  REQUIRE(r.status == DetectionStatus::ok);
+  CHECK_FALSE(r.ambiguous);
+  const double err = match_error(truth_boxes(l), r.boxes);
+  CHECK(err >= 0.0);
+  CHECK(err < max_err_m);
+  return r;
+}
+
 }  // namespace
 
 TEST_CASE("seam evidence from depth marks the gaps between boxes, not the box tops") {
@@ -147,17 +161,10 @@ TEST_CASE("seam evidence from depth marks the gaps between boxes, not the box to
 }
 
 TEST_CASE("solve_layout resolves pinwheel chirality from depth seams and refines to millimetres") {
-  LayoutParams p;
-  p.time_budget_ms = 500;
   for (bool mirrored : {false, true}) {
     const KnownLayout l = centred_pinwheel(mirrored);
     const Scene s = render(l, true);
-    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
-    REQUIRE(r.status == DetectionStatus::ok);
-    CHECK_FALSE(r.ambiguous);
-    const double err = match_error(truth_boxes(l), r.boxes);
-    CHECK(err >= 0.0);
-    CHECK(err < 0.003);
+    const LayoutResult r = solve_unflagged(l, s, 0.003);
     CHECK(r.coverage > 0.95);
     for (double sc : r.box_scores) CHECK(sc > 0.6);
   }
@@ -173,7 +180,7 @@ TEST_CASE("solve_layout flags the pinwheel ambiguous when the gaps are invisible
   CHECK(r.ambiguous);
 }
 
-TEST_CASE("intensity edges alone resolve the pinwheel when depth shows no gap") {
+TEST_CASE("dark lines in the intensity alone resolve the pinwheel when depth shows no gap") {
   LayoutParams p;
   p.time_budget_ms = 500;
   for (bool mirrored : {false, true}) {
@@ -216,49 +223,25 @@ TEST_CASE("labels near box sides: their edges are no seams, the dark gaps are") 
     CHECK(line_peak(b, 0.02) < 0.2);          // the label's outer edge
     CHECK(line_peak(b, 0.09) < 0.2);          // its inner edge
   }
-  // The gaps between boxes stand out: somewhere along each box's shared sides.
-  CHECK(ev.strength > 0.003);
-  LayoutParams p;
-  p.time_budget_ms = 500;
-  const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
-  REQUIRE(r.status == DetectionStatus::ok);
-  CHECK_FALSE(r.ambiguous);
-  const double err = match_error(truth_boxes(l), r.boxes);
-  CHECK(err >= 0.0);
-  CHECK(err < 0.003);
+  CHECK(ev.strength > 0.003);  // the dark gaps stand out
+  solve_unflagged(l, s, 0.003);
 }
 
 TEST_CASE("solve_layout on rendered layers: exact layouts, centres within 3 mm") {
-  LayoutParams p;
-  p.time_budget_ms = 500;
   std::vector<KnownLayout> layouts = {brick(), grid_200x150(40), l_shaped(), mixed_formats()};
   for (KnownLayout l : layouts) {
     l.theta_rad = -0.2;
     l = centred(l);
     INFO(l.name);
-    const Scene s = render(l, true);
-    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
-    REQUIRE(r.status == DetectionStatus::ok);
-    CHECK_FALSE(r.ambiguous);
-    const double err = match_error(truth_boxes(l), r.boxes);
-    CHECK(err >= 0.0);
-    CHECK(err < 0.003);
+    solve_unflagged(l, render(l, true), 0.003);
   }
 }
 
 TEST_CASE("solve_layout with depth noise and dropouts") {
-  LayoutParams p;
-  p.time_budget_ms = 500;
   for (KnownLayout l : {brick(), grid_200x150(40), pinwheel(0.4, 0.3, true)}) {
     l.theta_rad = 0.25;
     l = centred(l);
     INFO(l.name);
-    const Scene s = render(l, true, false, Noise{0.0015, 0.02, 5U});
-    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
-    REQUIRE(r.status == DetectionStatus::ok);
-    CHECK_FALSE(r.ambiguous);
-    const double err = match_error(truth_boxes(l), r.boxes);
-    CHECK(err >= 0.0);
-    CHECK(err < 0.004);
+    solve_unflagged(l, render(l, true, false, Noise{0.0015, 0.02, 5U}), 0.004);
   }
 }
