@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <limits>
 
 #include "layout_fixtures.hpp"
 #include "layout_internal.hpp"
@@ -14,6 +15,8 @@ using namespace palletd::layout_test;
 using namespace palletd::layout_detail;
 
 namespace {
+
+constexpr double kNoCap = std::numeric_limits<double>::infinity();  ///< absent seams uncapped
 
 bool same_boxes(const std::vector<Box2d>& a, const std::vector<Box2d>& b) {
   if (a.size() != b.size()) return false;
@@ -182,7 +185,7 @@ TEST_CASE("seam likelihood: a missing seam weighs at most half of a clear one") 
   std::vector<FrameBox> merged = truth;  // the two Bs as one A: the seam at x = 1.0 missed
   merged[2] = fb(0.8, 1.2, 0, true);
   merged.erase(merged.begin() + 3);
-  SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012);
+  SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012, kNoCap);
   REQUIRE(lik.calibrate({&truth, &split, &merged}));
   const double against_missing = lik.compare(truth, split);  // split predicts the missing seam
   const double for_present = lik.compare(truth, merged);     // truth predicts the present seam
@@ -191,9 +194,10 @@ TEST_CASE("seam likelihood: a missing seam weighs at most half of a clear one") 
   CHECK(against_missing > 0.0);
   CHECK(against_missing <= 0.55 * for_present);
   // Capped below what decides, absent seams alone never decide; a present one still does.
-  lik.cap_absent_evidence(0.5 * SeamLikelihood::decisive_nats(0.2));
-  CHECK(lik.compare(truth, split) == Approx(0.5 * SeamLikelihood::decisive_nats(0.2)));
-  CHECK(lik.compare(truth, merged) == Approx(for_present));
+  SeamLikelihood capped(seams, LayoutFrame{}, outline.front(), 0.01, 0.012, 0.5 * SeamLikelihood::decisive_nats(0.2));
+  REQUIRE(capped.calibrate({&truth, &split, &merged}));
+  CHECK(capped.compare(truth, split) == Approx(0.5 * SeamLikelihood::decisive_nats(0.2)));
+  CHECK(capped.compare(truth, merged) == Approx(for_present));
 }
 
 TEST_CASE("seam likelihood: candidates sharing no seam calibrate on the strongest of their seams") {
@@ -205,7 +209,7 @@ TEST_CASE("seam likelihood: candidates sharing no seam calibrate on the stronges
     const auto outline = union_outline(l);
     REQUIRE(outline.size() == 1);
     const std::vector<FrameBox> right = frame_boxes(l), other = frame_boxes(pinwheel(0.4, 0.3, !mirrored));
-    SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012);
+    SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012, kNoCap);
     REQUIRE(lik.calibrate({&right, &other}));
     CHECK(lik.compare(right, other) > SeamLikelihood::decisive_nats(0.3));
   }
@@ -223,7 +227,7 @@ TEST_CASE("seam likelihood: a faint trace on clean box tops decides nothing") {
     INFO("seams at " << scale << " of a full seam");
     SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
     for (float& v : seams.seam) v *= scale;
-    SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012);
+    SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012, kNoCap);
     const bool usable = lik.calibrate({&right, &other});
     CHECK(lik.measured());
     CHECK(usable == (scale > 0.1f));

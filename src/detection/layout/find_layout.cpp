@@ -137,6 +137,8 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     min_short = std::min(min_short, f.short_m);
   }
   const double min_edge = std::max(0.02, 0.25 * min_short);
+  // Absent seams together never decide (kAbsentShare of the decisive evidence).
+  const double absent_cap = kAbsentShare * SeamLikelihood::decisive_nats(min_short);
   const auto budget = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double, std::milli>(std::max(0.0, params.time_budget_ms)));
   const auto end = t0 + budget;
@@ -315,8 +317,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       for (std::size_t n : near) one_frame = one_frame && cands[n].orientation == slot;
       if (one_frame) {
         const double tol = params.line_merge_tol_m > 0 ? params.line_merge_tol_m : std::clamp(0.06 * min_short, 0.006, 0.02);
-        SeamLikelihood lik(*seams, frames[slot], frame_polys[slot], tol, params.seam_margin_m);
-        lik.cap_absent_evidence(kAbsentShare * SeamLikelihood::decisive_nats(min_short));
+        SeamLikelihood lik(*seams, frames[slot], frame_polys[slot], tol, params.seam_margin_m, absent_cap);
         std::vector<const std::vector<FrameBox>*> layouts;
         for (std::size_t n : near) layouts.push_back(&cands[n].boxes);
         if (lik.calibrate(layouts)) {
@@ -362,13 +363,12 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
         std::unique_ptr<SeamLikelihood> lik;
         if (have_seams) {
           lik = std::make_unique<SeamLikelihood>(*seams, best.frame, frame_polys[best.orientation], tol,
-                                                 params.seam_margin_m);
+                                                 params.seam_margin_m, absent_cap);
           const std::vector<FrameBox> overlay = moves_overlay(best.boxes, moves);
           std::vector<const std::vector<FrameBox>*> calibration{&best.boxes, &overlay};
           for (std::size_t n : near) {
             if (cands[n].orientation == best.orientation) calibration.push_back(&cands[n].boxes);
           }
-          lik->cap_absent_evidence(kAbsentShare * SeamLikelihood::decisive_nats(min_short));
           lik->calibrate(calibration);
         }
         const RetileResult rr =

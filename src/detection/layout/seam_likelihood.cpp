@@ -42,20 +42,17 @@ double mad_sigma(const std::vector<double>& v, double med) {
 }  // namespace
 
 SeamLikelihood::SeamLikelihood(const SeamEvidence& seams, const LayoutFrame& frame,
-                               const PolygonWithHoles& frame_polygon, double position_tol_m, double margin_m)
-    : polygon_(&frame_polygon), tol_(position_tol_m), margin_(margin_m) {
+                               const PolygonWithHoles& frame_polygon, double position_tol_m, double margin_m,
+                               double absent_cap_nats)
+    : polygon_(&frame_polygon), tol_(position_tol_m), margin_(margin_m), absent_cap_(absent_cap_nats) {
   if (seams.empty() || frame_polygon.outer.size() < 3) return;
-  double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
-  for (const auto& p : frame_polygon.outer) {
-    bx0 = std::min(bx0, p.x()); bx1 = std::max(bx1, p.x());
-    by0 = std::min(by0, p.y()); by1 = std::max(by1, p.y());
-  }
+  const Rect b = bounds_of(frame_polygon);
   cell_ = seams.cell_m;
   const double pad = 0.05;
-  x0_ = bx0 - pad;
-  y0_ = by0 - pad;
-  w_ = static_cast<int>(std::ceil((bx1 - bx0 + 2 * pad) / cell_));
-  h_ = static_cast<int>(std::ceil((by1 - by0 + 2 * pad) / cell_));
+  x0_ = b.x0 - pad;
+  y0_ = b.y0 - pad;
+  w_ = static_cast<int>(std::ceil((b.x1 - b.x0 + 2 * pad) / cell_));
+  h_ = static_cast<int>(std::ceil((b.y1 - b.y0 + 2 * pad) / cell_));
   if (w_ <= 0 || h_ <= 0 || static_cast<double>(w_) * h_ > 4e6) {
     w_ = h_ = 0;
     return;
@@ -251,7 +248,7 @@ double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector
     for (std::size_t t = i; t < j; ++t) v.push_back(llr(contrast(diff[t].key, diff[t].pos), diff[t].key.vertical));
     const double run = diff[i].sign * static_cast<double>(j - i) * median_of(std::move(v));
     // Runs whose predicted seam is absent (evidence against the layout predicting it) add up
-    // apart: together they are capped (cap_absent_evidence).
+    // apart: together they are capped (absent_cap_nats).
     if (diff[i].sign * run < 0) {
       absent += run;
     } else {

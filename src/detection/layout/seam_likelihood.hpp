@@ -28,8 +28,11 @@ class SeamLikelihood {
  public:
   /// `seams` raw raster in the layer frame; `frame_polygon` the component in `frame`.
   /// `position_tol_m`: how far a measured seam may lie from a predicted box side [m].
+  /// `absent_cap_nats`: cap of the summed evidence of seams that are predicted and absent
+  /// (infinity: none). Set below decisive_nats, absent seams alone never decide: a gap can be
+  /// pressed shut, so a decision needs a seam that shows.
   SeamLikelihood(const SeamEvidence& seams, const LayoutFrame& frame, const PolygonWithHoles& frame_polygon,
-                 double position_tol_m, double margin_m);
+                 double position_tol_m, double margin_m, double absent_cap_nats);
   [[nodiscard]] bool empty() const { return w_ == 0; }
 
   /// Calibrates the two contrast distributions from the candidates (all of the same frame):
@@ -44,11 +47,6 @@ class SeamLikelihood {
 
   /// Evidence [nats] that layout a rather than b explains the seams (antisymmetric).
   [[nodiscard]] double compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const;
-  /// Caps the summed evidence of seams that are predicted and absent [nats] (none by default).
-  /// Set below decisive_nats, absent seams alone never decide: a gap can be pressed shut, so a
-  /// decision needs a seam that shows.
-  void cap_absent_evidence(double nats) { absent_cap_ = nats; }
-
   /// Evidence that decides [nats]: a clear seam along half of the shortest box side.
   [[nodiscard]] static double decisive_nats(double min_short_m);
 
@@ -90,7 +88,7 @@ class SeamLikelihood {
   std::size_t axis_seams_[2] = {0, 0};  ///< seam reference pieces per axis ([1]: vertical lines)
   bool usable_ = false;
   bool measured_ = false;
-  double absent_cap_ = 1e300;
+  double absent_cap_ = 0;  ///< [nats]
 };
 
 /// An outline-equal change of a layout: the boxes `remove` (indices) give way to `add`, which
