@@ -106,7 +106,7 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
   std::vector<double> residuals;
   for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
     const int c = cell_of[pix];
-    if (c < 0 || mask.at<std::uint8_t>(c / ev.width, c % ev.width) == 0) continue;
+    if (c < 0 || mask_cells[static_cast<std::size_t>(c)] == 0) continue;
     const Eigen::Vector3f& p = cloud.points[pix];
     if (std::isfinite(p.x()) && std::isfinite(p.z())) residuals.push_back(plane.signed_distance(p.cast<double>()));
   }
@@ -127,7 +127,7 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
     for (std::size_t pix = 0; pix + 1 < cell_of.size(); ++pix) {
       const int c = cell_of[pix];
       if (c < 0 || cell_of[pix + 1] < 0 || (pix + 1) % width == 0) continue;
-      if (mask.at<std::uint8_t>(c / ev.width, c % ev.width) == 0) continue;
+      if (mask_cells[static_cast<std::size_t>(c)] == 0) continue;
       diffs.push_back(static_cast<double>(frame.intensity[pix + 1]) - static_cast<double>(frame.intensity[pix]));
     }
     if (diffs.size() >= 20) {
@@ -170,8 +170,8 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
   std::size_t inside = 0, seamy = 0;
   for (int y = 0; y < ev.height; ++y) {
     for (int x = 0; x < ev.width; ++x) {
-      if (mask.at<std::uint8_t>(y, x) == 0) continue;
       const std::size_t c = static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x);
+      if (mask_cells[c] == 0) continue;
       float s = 0.f;
       if (count[c] > 0) {
         s = sum[c] / count[c];
