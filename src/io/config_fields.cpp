@@ -101,6 +101,7 @@ const Table<LayoutParams>& layout_table() {
              {{"product", SearchMode::product}, {"paper", SearchMode::paper}}),
       number("a_min_fraction", &LayoutParams::a_min_fraction, Range::closed(0.0, 1.0)),
       number("a_max_fraction", &LayoutParams::a_max_fraction, Range::closed(0.0, 1.0)),
+      number("outline_tolerance_pitches", &LayoutParams::outline_tolerance_pitches, Range::closed(0.0, 5.0)),
       number("time_budget_ms", &LayoutParams::time_budget_ms, Range::positive(60000.0)),
       integer("search_expansions", &LayoutParams::search_expansions, 1, 1000000000LL),
       number("ambiguity_margin", &LayoutParams::ambiguity_margin, Range::closed(0.0, 1.0)),

@@ -214,3 +214,57 @@ TEST_CASE("pinwheel chirality when the frame's own seams do not show: ambiguous,
   CHECK_FALSE(c.ambiguous);
   CHECK(match_error(truth_boxes(mirror), c.boxes) >= 0.0);
 }
+
+namespace {
+
+/// The ring with the convex corners of its short steps (an edge shorter than step_m) cut by
+/// chamfers: step_leg_m along the step, side_leg_m along the other edge.
+Ring2d chamfer_steps(const Ring2d& ring, double step_m, double step_leg_m, double side_leg_m) {
+  const double orient = signed_area(ring) > 0 ? 1.0 : -1.0;
+  Ring2d out;
+  for (std::size_t i = 0; i < ring.size(); ++i) {
+    const Eigen::Vector2d& a = ring[(i + ring.size() - 1) % ring.size()];
+    const Eigen::Vector2d& b = ring[i];
+    const Eigen::Vector2d& c = ring[(i + 1) % ring.size()];
+    const Eigen::Vector2d u = b - a, v = c - b;
+    const bool convex = orient * (u.x() * v.y() - u.y() * v.x()) > 0;
+    if (!convex || (u.norm() >= step_m && v.norm() >= step_m)) {
+      out.push_back(b);
+      continue;
+    }
+    out.push_back(b - u.normalized() * (u.norm() < step_m ? step_leg_m : side_leg_m));
+    out.push_back(b + v.normalized() * (v.norm() < step_m ? step_leg_m : side_leg_m));
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("staggered edges traced at a coarse pitch: the outline tolerance keeps their boxes") {
+  // Two rows of 300 x 200 boxes, the second offset by 100 mm: each end of the layer steps by
+  // 100 mm. At a 20 mm pitch seen at 45 deg such a step comes out washed into a slope (as in a
+  // simulated O3D303 frame at 176 x 132): here a chamfer of 80 mm along the step and 160 mm
+  // along the box side, which leaves the end box 0.89 of its area inside the measured outline,
+  // and the paper's A_min drops it.
+  KnownLayout l{"staggered", {{0.3, 0.2, "A"}}, {}, 0.0, Eigen::Vector2d::Zero(), 0.0};
+  for (int r = 0; r < 2; ++r) {
+    for (int c = 0; c < 3; ++c) l.boxes.push_back({c * 0.3 + (r == 1 ? 0.1 : 0.0), r * 0.2, 0, true});
+  }
+  l.theta_rad = 0.2;
+  auto outline = union_outline(l);
+  REQUIRE(outline.size() == 1);
+  outline[0].outer = chamfer_steps(outline[0].outer, 0.15, 0.08, 0.16);
+  LayoutParams p = params_for_tests();
+  p.outline_tolerance_m = 0.0;  // the outline taken as exact: boxes go missing
+  const LayoutResult exact = find_layout(outline, l.formats, p, nullptr);
+  CHECK(match_error(truth_boxes(l), exact.boxes) < 0.0);
+  p.outline_tolerance_m = 0.02;  // one pitch
+  const LayoutResult tolerant = find_layout(outline, l.formats, p, nullptr);
+  REQUIRE(tolerant.status == DetectionStatus::ok);
+  const double err = match_error(truth_boxes(l), tolerant.boxes);
+  CHECK(err >= 0.0);
+  CHECK(err < 0.003);
+  CHECK_FALSE(tolerant.ambiguous);
+  // The score stays the area inside the measured outline.
+  CHECK(tolerant.score <= area(outline[0]) + 1e-9);
+}

@@ -81,6 +81,11 @@ void erode_square(std::vector<std::uint8_t>& cells, int w, int h, int k) {
   window_pass(cells, w, h, k, false, true);
 }
 
+void dilate_square(std::vector<std::uint8_t>& cells, int w, int h, int k) {
+  window_pass(cells, w, h, k, true, false);
+  window_pass(cells, w, h, k, false, false);
+}
+
 void open_square(std::vector<std::uint8_t>& cells, int w, int h, int k) {
   window_pass(cells, w, h, k, true, true);
   window_pass(cells, w, h, k, false, true);

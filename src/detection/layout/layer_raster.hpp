@@ -51,6 +51,9 @@ double layer_pixel_pitch_m(const Intrinsics& in, const LayerResult& layer);
 /// beyond the raster count as 0.
 void erode_square(std::vector<std::uint8_t>& cells, int w, int h, int k);
 
+/// Dilation with a (2k+1)^2 square: a cell becomes 1 when any cell within k of it is 1.
+void dilate_square(std::vector<std::uint8_t>& cells, int w, int h, int k);
+
 /// Morphological opening with a (2k+1)^2 square: pieces narrower than 2k+1 cells vanish.
 void open_square(std::vector<std::uint8_t>& cells, int w, int h, int k);
 

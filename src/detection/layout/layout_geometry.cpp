@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "layer_raster.hpp"
 #include "layout_internal.hpp"
 
 namespace palletd {
@@ -325,21 +326,20 @@ double SeamTable::support(const Rect& r) const {
   return cells > 0 ? s / cells : 0.0;
 }
 
-AreaOracle::AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method,
-                       double raster_cell_m)
-    : polygon_(&frame_polygon), method_(method) {
+AreaOracle::AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method, double raster_cell_m,
+                       double dilate_m)
+    : polygon_(&frame_polygon), method_(method), dilate_m_(std::max(0.0, dilate_m)) {
   if (method_ != AreaMethod::raster) return;
   cell_ = std::max(raster_cell_m, 1e-4);
-  double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
-  for (const auto& p : frame_polygon.outer) {
-    bx0 = std::min(bx0, p.x()); bx1 = std::max(bx1, p.x());
-    by0 = std::min(by0, p.y()); by1 = std::max(by1, p.y());
-  }
-  x0_ = bx0 - cell_;
-  y0_ = by0 - cell_;
-  w_ = static_cast<int>(std::ceil((bx1 - bx0) / cell_)) + 2;
-  h_ = static_cast<int>(std::ceil((by1 - by0) / cell_)) + 2;
-  cv::Mat mask = cv::Mat::zeros(h_, w_, CV_8U);
+  const Rect b = bounds_of(frame_polygon);
+  const int grow = static_cast<int>(std::lround(dilate_m_ / cell_));
+  x0_ = b.x0 - cell_ * (1 + grow);
+  y0_ = b.y0 - cell_ * (1 + grow);
+  w_ = static_cast<int>(std::ceil((b.x1 - b.x0) / cell_)) + 2 + 2 * grow;
+  h_ = static_cast<int>(std::ceil((b.y1 - b.y0) / cell_)) + 2 + 2 * grow;
+  // The mask is a view of `cells` (the dilation works on the caller's thread, see layer_raster.hpp).
+  std::vector<std::uint8_t> cells(static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_), 0);
+  cv::Mat mask(h_, w_, CV_8U, cells.data());
   constexpr int kShift = 8;
   const double scale = static_cast<double>(1 << kShift) / cell_;
   auto to_pts = [&](const Ring2d& ring) {
@@ -355,6 +355,7 @@ AreaOracle::AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method,
   std::vector<std::vector<cv::Point>> holes;
   for (const auto& h : frame_polygon.holes) holes.push_back(to_pts(h));
   if (!holes.empty()) cv::fillPoly(mask, holes, cv::Scalar(0), cv::LINE_8, kShift);
+  if (grow > 0) dilate_square(cells, w_, h_, grow);
   cv::Mat sat;
   cv::integral(mask, sat, CV_64F);
   sat_.assign(reinterpret_cast<const double*>(sat.data),

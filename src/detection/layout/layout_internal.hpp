@@ -154,15 +154,18 @@ EdgeEvidence edge_evidence(const Rect& r, const Table& table, AreaFn&& layer_are
   return ev;
 }
 
-/// Area(rect ∩ polygon) by the chosen method, in the layout frame.
+/// Area(rect ∩ polygon) by the chosen method, in the layout frame. With dilate_m > 0 (raster
+/// only), the area of rect ∩ the polygon grown by a square of half-width dilate_m: the polygon
+/// plus everything within dilate_m of it along the layout axes.
 class AreaOracle {
  public:
-  AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method, double raster_cell_m);
+  AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method, double raster_cell_m, double dilate_m = 0.0);
   [[nodiscard]] double area(const Rect& r) const;
 
  private:
   const PolygonWithHoles* polygon_;
   AreaMethod method_;
+  double dilate_m_ = 0.0;
   double x0_ = 0, y0_ = 0, cell_ = 0;
   int w_ = 0, h_ = 0;
   std::vector<double> sat_;

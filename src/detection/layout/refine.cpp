@@ -13,6 +13,7 @@
 #include <cmath>
 #include <limits>
 
+#include "layer_raster.hpp"
 #include "layout_internal.hpp"
 #include "layout_scoring.hpp"
 #include "refine_joint.hpp"
@@ -489,9 +490,13 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
   const LayerSurroundings around = params.unseen_min_fraction > 0.0 && may_go_on
                                        ? build_layer_surroundings(frame, cloud, layer, max_long)
                                        : LayerSurroundings{};
-  const LayoutResult found = find_layout(layer.polygons, formats, params, &seams, &around);
-  if (!params.refine || params.search == SearchMode::paper) return found;
-  return refine_layout(found, layer, formats, &seams, params, &around);
+  LayoutParams p = params;
+  if (p.outline_tolerance_m <= 0.0) {
+    p.outline_tolerance_m = p.outline_tolerance_pitches * layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
+  }
+  const LayoutResult found = find_layout(layer.polygons, formats, p, &seams, &around);
+  if (!p.refine || p.search == SearchMode::paper) return found;
+  return refine_layout(found, layer, formats, &seams, p, &around);
 }
 
 }  // namespace palletd

@@ -176,7 +176,22 @@ bool ProductSearch::build(std::string* reason) {
   if (seams_ != nullptr && !seams_->empty()) {
     mask = std::make_unique<AreaOracle>(poly_, AreaMethod::raster, seams_->cell());
   }
+  // The a_min test on the outline grown by its uncertainty (LayoutParams::outline_tolerance_m),
+  // rasterised only when a placement is short of a_min by less than the growth can add.
+  const double grow_m = std::max(0.0, params_.outline_tolerance_m);
+  std::unique_ptr<AreaOracle> grown;
+  auto on_layer = [&](const Rect& r, double a, double need) {
+    if (a > need) return true;
+    const double w = r.x1 - r.x0, h = r.y1 - r.y0;
+    if (!(grow_m > 0.0) || a + 2.0 * grow_m * (w + h) + 4.0 * grow_m * grow_m <= need) return false;
+    if (!grown) {
+      grown = std::make_unique<AreaOracle>(poly_, AreaMethod::raster, std::min(params_.area_raster_cell_m, grow_m),
+                                           grow_m);
+    }
+    return grown->area(r) > need;
+  };
   placements_.assign(ncells, {});
+  min_placement_area_ = total_area_;
   const double margin = params_.seam_margin_m;
   for (int j = 0; j < ny_; ++j) {
     for (int i = 0; i < nx_; ++i) {
@@ -197,7 +212,7 @@ bool ProductSearch::build(std::string* reason) {
         } else {
           a = oracle->area(r);
         }
-        if (a <= params_.a_min_fraction * s.dx * s.dy) continue;
+        if (!on_layer(r, a, params_.a_min_fraction * s.dx * s.dy)) continue;
         double pen = 0;
         if (seams_ != nullptr && !seams_->empty()) {
           // Seams across the interior, and edges with a neighbour that lie on no seam.
@@ -206,6 +221,7 @@ bool ProductSearch::build(std::string* reason) {
           pen += params_.seam_weight * params_.missing_seam_weight * (ev.neighbour_len - ev.supported_len) * seams_->cell();
         }
         list.push_back({static_cast<int>(k), i1, j1, a, pen});
+        min_placement_area_ = std::min(min_placement_area_, a);
       }
       // Most promising first (largest net gain).
       std::sort(list.begin(), list.end(), [](const Placement& a, const Placement& b) {

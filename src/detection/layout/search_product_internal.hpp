@@ -94,6 +94,7 @@ class ProductSearch {
   std::vector<Shape> shapes_;
   std::vector<std::vector<Placement>> placements_;  ///< per cell
   double total_area_ = 0, min_box_area_ = 0, tol_ = 0;
+  double min_placement_area_ = 0;  ///< least Area(box ∩ layer) of any placement [m^2]
   std::size_t words_ = 0;
   std::vector<Node> nodes_;
   std::vector<std::uint64_t> pool_;

@@ -59,7 +59,9 @@ bool ProductSearch::fits(const std::uint64_t* occ, int cell, const Placement& p)
 
 void ProductSearch::advance(Node& n, std::uint64_t* occ) const {
   const int ncells = nx_ * ny_;
-  const double stop_area = params_.a_min_fraction * min_box_area_;
+  // No placement covers less of the layer than this (with an outline tolerance, less than
+  // a_min_fraction of a box can be enough).
+  const double stop_area = std::min(params_.a_min_fraction * min_box_area_, min_placement_area_);
   while (n.cursor < ncells) {
     const double remaining = total_area_ - n.covered - n.lost;
     if (remaining < stop_area) {  // no further box can be placed: the rest is lost
