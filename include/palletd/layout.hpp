@@ -80,7 +80,8 @@ struct LayoutParams {
   /// product search it only ends searches the expansion budget would let run too long.
   double time_budget_ms = 200.0;
   /// Two materially different layouts whose scores differ by less than this share of the
-  /// smallest box area are tied (-> ambiguous).
+  /// smallest box area, plus a strip outline_tolerance_m wide along the shortest box side, are
+  /// near-equal: the seams choose between them, or they are tied (-> ambiguous).
   double ambiguity_margin = 0.02;
   double corner_angle_tol_deg = 10.0;  ///< an outline corner is orthogonal within this [deg]
   double line_merge_tol_m = 0.0;       ///< candidate lines closer than this merge [m]; 0 = auto

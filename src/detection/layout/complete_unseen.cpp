@@ -157,7 +157,7 @@ class Completer {
     out.boxes = boxes;
     const std::vector<Found> first = candidates(boxes, &out.open);
     if (first.empty()) return out;
-    const double tie = params_.ambiguity_margin * min_box_area_;
+    const double tie = tie_margin_m2(params_, formats_);
     double best_area = -1.0;
     std::vector<std::vector<FrameBox>> tried;
     for (std::size_t k = 0; k < first.size() && tried.size() < kFirstMoves; ++k) {
@@ -255,7 +255,7 @@ class Completer {
   /// Adds the best box while there is one (the last ones of `boxes` in the answer are added).
   UnseenCompletion greedy(std::vector<FrameBox> boxes) const {
     UnseenCompletion out;
-    const double tie = params_.ambiguity_margin * min_box_area_;
+    const double tie = tie_margin_m2(params_, formats_);
     for (int round = 0; round < 16; ++round) {
       const std::vector<Found> found = candidates(boxes, &out.open);
       if (found.empty()) break;

@@ -137,6 +137,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     min_short = std::min(min_short, f.short_m);
   }
   const double min_edge = std::max(0.02, 0.25 * min_short);
+  const double tie_margin = tie_margin_m2(params, formats);
   // Absent seams together never decide (kAbsentShare of the decisive evidence).
   const double absent_cap = kAbsentShare * SeamLikelihood::decisive_nats(min_short);
   const auto budget = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -249,7 +250,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
           const auto left3 = d2.end > now3 ? d2.end - now3 : std::chrono::steady_clock::duration::zero();
           const ComponentSolution ss =
               search_product(fp, fe, formats, params, &table, SearchBudget{orient_expansions, Deadline{now3 + left3}},
-                             cs.score - params.ambiguity_margin * min_box_area);
+                             cs.score - tie_margin);
           spend(ss.expansions);
           result.hypotheses_visited += ss.visited;
           result.budget_exhausted = result.budget_exhausted || ss.budget_exhausted;
@@ -283,7 +284,7 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     std::stable_sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
     // Near-equal outline hypotheses: materially different layouts within the ambiguity margin.
     const double same_tol = 0.25 * std::sqrt(min_box_area);
-    const double margin = params.ambiguity_margin * min_box_area;
+    const double margin = tie_margin;
     std::vector<std::size_t> near{0};
     for (std::size_t k = 1; k < cands.size(); ++k) {
       const Candidate& c = cands[k];

@@ -381,6 +381,16 @@ double AreaOracle::area(const Rect& r) const {
   return std::max(0.0, cells * cell_ * cell_);
 }
 
+double tie_margin_m2(const LayoutParams& params, const std::vector<BoxFormat>& formats) {
+  double min_area = 0.0, min_short = 0.0;
+  for (std::size_t f = 0; f < formats.size(); ++f) {
+    const double a = formats[f].long_m * formats[f].short_m;
+    min_area = f == 0 ? a : std::min(min_area, a);
+    min_short = f == 0 ? formats[f].short_m : std::min(min_short, formats[f].short_m);
+  }
+  return params.ambiguity_margin * min_area + std::max(0.0, params.outline_tolerance_m) * min_short;
+}
+
 PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m) {
   auto ring = [&](const Ring2d& r) {
     if (r.size() < 8) return r;

@@ -23,6 +23,11 @@ double overlap(const Rect& a, const Rect& b);
 /// Bounding rectangle of a polygon's outer ring (x0 > x1 when the ring is empty).
 Rect bounds_of(const PolygonWithHoles& polygon);
 
+/// Outline scores closer than this tie [m^2]: the ambiguity margin's share of the smallest box,
+/// plus a strip as wide as the outline's tolerance along the shortest box side (what an outline
+/// off by that much at one box end changes; LayoutParams::outline_tolerance_m).
+double tie_margin_m2(const LayoutParams& params, const std::vector<BoxFormat>& formats);
+
 /// A box placed in the layout frame.
 struct FrameBox {
   Rect rect;

@@ -20,7 +20,7 @@ ComponentSolution ProductSearch::run() {
       std::max<std::size_t>(16, std::min(params_.max_nodes, kMaxPoolBytes / (words_ * 8)));
   nodes_.reserve(std::min<std::size_t>(max_nodes, 1 << 16));
   pool_.reserve(std::min<std::size_t>(max_nodes, 1 << 16) * words_);
-  const double margin = params_.ambiguity_margin * min_box_area_;
+  const double margin = tie_margin_m2(params_, formats_);
   const double same_tol = 0.25 * std::sqrt(min_box_area_);
   auto quant = [](double b) { return static_cast<std::int64_t>(std::llround(b * 1e8)); };
 
