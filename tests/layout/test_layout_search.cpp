@@ -268,3 +268,22 @@ TEST_CASE("staggered edges traced at a coarse pitch: the outline tolerance keeps
   // The score stays the area inside the measured outline.
   CHECK(tolerant.score <= area(outline[0]) + 1e-9);
 }
+
+TEST_CASE("a lone box measured a pixel short on each axis is still a box") {
+  // At a coarse pitch (17 mm) a lone 315 x 232 box's outline came out 300 x 220 (the mixed pixels
+  // at its edges fall off the layer): no candidate line lay a box length from either side.
+  const std::vector<BoxFormat> formats{{0.315, 0.232, "A"}};
+  PolygonWithHoles lone;
+  lone.outer = {{0.1, 0.2}, {0.4, 0.2}, {0.4, 0.42}, {0.1, 0.42}};
+  LayoutParams p = params_for_tests();
+  p.outline_tolerance_m = 0.0;
+  CHECK(find_layout({lone}, formats, p, nullptr).boxes.empty());
+  p.outline_tolerance_m = 0.017;
+  const LayoutResult r = find_layout({lone}, formats, p, nullptr);
+  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.boxes.size() == 1);
+  CHECK_FALSE(r.ambiguous);
+  // Placed from one of the seen sides (the refinement centres it on the outline).
+  CHECK(std::abs(r.boxes[0].center.x() - 0.25) < 0.01);
+  CHECK(std::abs(r.boxes[0].center.y() - 0.31) < 0.01);
+}

@@ -160,7 +160,14 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     // A component smaller than a box may be a box the outline cuts where the depth ends.
     const bool may_complete = surroundings != nullptr && !surroundings->empty() && params.unseen_min_fraction > 0.0 &&
                               params.search == SearchMode::product;
-    if (comp_area < (may_complete ? params.unseen_min_fraction : params.a_min_fraction) * min_box_area) {
+    // The product search counts the outline grown by its tolerance towards a_min: at most the
+    // tolerance times the rings' length more (a lone box at a coarse pitch measures smaller).
+    double grown_area = comp_area;
+    if (params.search == SearchMode::product && params.outline_tolerance_m > 0.0) {
+      grown_area += params.outline_tolerance_m * rings_length_m(comp) +
+                    4.0 * params.outline_tolerance_m * params.outline_tolerance_m;
+    }
+    if (grown_area < (may_complete ? params.unseen_min_fraction : params.a_min_fraction) * min_box_area) {
       reasons.push_back("component " + std::to_string(ci) + " is smaller than every box format");
       continue;
     }

@@ -381,6 +381,17 @@ double AreaOracle::area(const Rect& r) const {
   return std::max(0.0, cells * cell_ * cell_);
 }
 
+double rings_length_m(const PolygonWithHoles& polygon) {
+  auto length = [](const Ring2d& r) {
+    double l = 0.0;
+    for (std::size_t i = 0; i < r.size(); ++i) l += (r[(i + 1) % r.size()] - r[i]).norm();
+    return l;
+  };
+  double total = length(polygon.outer);
+  for (const auto& h : polygon.holes) total += length(h);
+  return total;
+}
+
 double tie_margin_m2(const LayoutParams& params, const std::vector<BoxFormat>& formats) {
   double min_area = 0.0, min_short = 0.0;
   for (std::size_t f = 0; f < formats.size(); ++f) {

@@ -22,6 +22,8 @@ struct Rect {
 double overlap(const Rect& a, const Rect& b);
 /// Bounding rectangle of a polygon's outer ring (x0 > x1 when the ring is empty).
 Rect bounds_of(const PolygonWithHoles& polygon);
+/// Length of the outer ring and the holes [m].
+double rings_length_m(const PolygonWithHoles& polygon);
 
 /// Outline scores closer than this tie [m^2]: the ambiguity margin's share of the smallest box,
 /// plus a strip as wide as the outline's tolerance along the shortest box side (what an outline

@@ -138,8 +138,11 @@ bool ProductSearch::build(std::string* reason) {
     }
     return out;
   };
-  xs_ = close_both(sx, bx0, bx1);
-  ys_ = close_both(sy, by0, by1);
+  // Box sides may lie up to the outline's tolerance beyond its extent (a lone box at a coarse
+  // pitch measures a pixel short).
+  const double grow_m = std::max(0.0, params_.outline_tolerance_m);
+  xs_ = close_both(sx, bx0 - grow_m, bx1 + grow_m);
+  ys_ = close_both(sy, by0 - grow_m, by1 + grow_m);
   if (capped) {
     *reason = "too many candidate box positions for these formats";
     return false;
@@ -178,7 +181,6 @@ bool ProductSearch::build(std::string* reason) {
   }
   // The a_min test on the outline grown by its uncertainty (LayoutParams::outline_tolerance_m),
   // rasterised only when a placement is short of a_min by less than the growth can add.
-  const double grow_m = std::max(0.0, params_.outline_tolerance_m);
   std::unique_ptr<AreaOracle> grown;
   auto on_layer = [&](const Rect& r, double a, double need) {
     if (a > need) return true;
