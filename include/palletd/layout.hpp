@@ -60,13 +60,17 @@ struct LayoutParams {
   double a_min_fraction = 0.9;   ///< a box is on the layer when Area(B ∩ C) > a_min_fraction * Area(B)
   double a_max_fraction = 0.1;   ///< and overlaps the hypothesis by less than a_max_fraction * Area(B)
   /// Product search: how far the true outline may lie outside the measured one [pixel pitches on
-  /// the layer]. An outline traced through pixels is uncertain by about a pitch, and at a coarse
-  /// pitch the short steps of a staggered edge (a brick layer's 100 mm offsets are 5 pixels at
-  /// 20 mm) come out chamfered, cutting more than a tenth off the boxes there. For the
+  /// the layer]. An outline traced through pixels places an edge between a layer pixel and its
+  /// neighbour off the layer, uncertain by up to half a pitch where no mixed depth says more; at a
+  /// coarse pitch the short steps of a staggered edge (a brick layer's 100 mm offsets are 5 pixels
+  /// at 20 mm) come out washed into slopes that cut more than a tenth off the boxes there. For the
   /// a_min_fraction test a box's part outside the outline but within this distance of it counts
-  /// as on the layer; the score stays Area(B ∩ C). solve_layout converts it to
-  /// outline_tolerance_m with the layer's pixel pitch. 0 = the outline is exact (the paper).
-  double outline_tolerance_pitches = 1.0;
+  /// as on the layer; the score stays Area(B ∩ C). It also widens the tie margin (see
+  /// ambiguity_margin) and lets candidate box sides reach that far beyond the outline.
+  /// solve_layout converts it to outline_tolerance_m with the layer's pixel pitch. 0 = the
+  /// outline is exact (the paper). Larger values blur the recipe's formats: a box 20 mm smaller
+  /// than its format passes more often.
+  double outline_tolerance_pitches = 0.5;
   /// The same in metres, used by find_layout; solve_layout sets it from
   /// outline_tolerance_pitches when it is 0 [m].
   double outline_tolerance_m = 0.0;

@@ -169,10 +169,10 @@ TEST_CASE("detect() keeps the end boxes of a brick layer whose steps are washed 
 }
 
 // The chimney's two chiralities differ in outline score by 2.6 % of a box, more than the 2 %
-// margin but less than what an outline off by a pixel at one box end makes; the seams then pick
+// margin but less than what an outline off by half a pixel at one box end makes; the seams pick
 // the true one by far (tie_margin_m2). Its separate column of three boxes is turned by up to
 // 2.3 deg at this pitch, so the check is on the arrangement and positions, not the exact flag.
-TEST_CASE("detect() lets the seams choose between layouts an outline a pixel off cannot separate") {
+TEST_CASE("detect() lets the seams choose between layouts an outline half a pixel off cannot separate") {
   const BundledRun run = run_bundled("coarse/chimney_315x232_near_tie_o3d303-small");
   REQUIRE(run.eval.status == "ok");
   CHECK_FALSE(run.eval.ambiguous);

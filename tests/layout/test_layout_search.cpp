@@ -258,7 +258,7 @@ TEST_CASE("staggered edges traced at a coarse pitch: the outline tolerance keeps
   p.outline_tolerance_m = 0.0;  // the outline taken as exact: boxes go missing
   const LayoutResult exact = find_layout(outline, l.formats, p, nullptr);
   CHECK(match_error(truth_boxes(l), exact.boxes) < 0.0);
-  p.outline_tolerance_m = 0.02;  // one pitch
+  p.outline_tolerance_m = 0.01;  // half the pitch
   const LayoutResult tolerant = find_layout(outline, l.formats, p, nullptr);
   REQUIRE(tolerant.status == DetectionStatus::ok);
   const double err = match_error(truth_boxes(l), tolerant.boxes);
@@ -278,7 +278,7 @@ TEST_CASE("a lone box measured a pixel short on each axis is still a box") {
   LayoutParams p = params_for_tests();
   p.outline_tolerance_m = 0.0;
   CHECK(find_layout({lone}, formats, p, nullptr).boxes.empty());
-  p.outline_tolerance_m = 0.017;
+  p.outline_tolerance_m = 0.0085;  // half the pitch
   const LayoutResult r = find_layout({lone}, formats, p, nullptr);
   REQUIRE(r.status == DetectionStatus::ok);
   REQUIRE(r.boxes.size() == 1);

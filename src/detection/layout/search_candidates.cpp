@@ -139,7 +139,7 @@ bool ProductSearch::build(std::string* reason) {
     return out;
   };
   // Box sides may lie up to the outline's tolerance beyond its extent (a lone box at a coarse
-  // pitch measures a pixel short).
+  // pitch measures short by its mixed edge pixels).
   const double grow_m = std::max(0.0, params_.outline_tolerance_m);
   xs_ = close_both(sx, bx0 - grow_m, bx1 + grow_m);
   ys_ = close_both(sy, by0 - grow_m, by1 + grow_m);

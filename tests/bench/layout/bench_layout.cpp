@@ -176,7 +176,7 @@ int main(int argc, char** argv) {
   }
   LayoutParams product;
   product.time_budget_ms = 1000;  // generous: we measure how long it needs
-  product.outline_tolerance_m = 0.003;  // one pitch of the synthetic seam raster, as solve_layout sets it
+  product.outline_tolerance_m = 0.0015;  // half a pitch of the synthetic seam raster, as solve_layout sets it
   LayoutParams paper = product;
   paper.search = SearchMode::paper;
   paper.paper_max_hypotheses = paper_cap;
