@@ -330,8 +330,12 @@ AreaOracle::AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method,
                        double dilate_m)
     : polygon_(&frame_polygon), method_(method), dilate_m_(std::max(0.0, dilate_m)) {
   if (method_ != AreaMethod::raster) return;
-  cell_ = std::max(raster_cell_m, 1e-4);
   const Rect b = bounds_of(frame_polygon);
+  // At most kMaxCells cells (about 40 MB with the summed-area table): a layer of many square
+  // metres is rasterised more coarsely.
+  constexpr double kMaxCells = 4e6;
+  const double extent_m2 = (b.x1 - b.x0 + 2 * dilate_m_) * (b.y1 - b.y0 + 2 * dilate_m_);
+  cell_ = std::max({raster_cell_m, 1e-4, std::sqrt(std::max(0.0, extent_m2) / kMaxCells)});
   const int grow = static_cast<int>(std::lround(dilate_m_ / cell_));
   x0_ = b.x0 - cell_ * (1 + grow);
   y0_ = b.y0 - cell_ * (1 + grow);
