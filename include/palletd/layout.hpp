@@ -184,6 +184,23 @@ struct LayerSurroundings {
 LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCloud& cloud,
                                            const LayerResult& layer, double reach_m);
 
+/// A pixel on the layer's rim that straddles the edge: a ToF pixel whose footprint lies partly on
+/// the top and partly on the surface beyond returns a depth between the two, in proportion to
+/// the light from each (mixed pixel). Where its viewing ray meets the plane, and the share of its
+/// footprint on the top estimated from that depth.
+struct RimPixel {
+  Eigen::Vector2f at_m = Eigen::Vector2f::Zero();  ///< layer frame [m]
+  float top_share = 0.f;                           ///< 0..1
+};
+
+/// The layer's mixed rim pixels: below the level band (build_layer_surroundings) next to a pixel
+/// at the layer's level (4-neighbourhood), with the pixel straight on beyond them lower still,
+/// at least min_drop_m below the plane. top_share = 1 - (its depth below the plane) / (the
+/// depth beyond), averaged over the directions that qualify. Cameras that blank mixed pixels
+/// (flying-pixel filters) give none. Empty when the layer is not ok.
+std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                                      double min_drop_m = 0.05);
+
 /// Result of the layout search for all components of a layer.
 struct LayoutResult {
   DetectionStatus status = DetectionStatus::no_layout;
@@ -217,10 +234,13 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
 /// positions reach millimetres; sizes stay at the nominal format within
 /// refine_size_tolerance_m. Recomputes per-box scores. `seams` may be null. With
 /// `surroundings`, outline stretches where the depth ends (nothing seen beyond within 50 mm)
-/// are not taken for box edges.
+/// are not taken for box edges. With `rim`, an outline side that does not face the camera is
+/// placed within the footprint of the mixed pixels beyond it (their top share) instead of at
+/// the middle of that footprint.
 LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                            const std::vector<BoxFormat>& formats, const SeamEvidence* seams,
-                           const LayoutParams& params, const LayerSurroundings* surroundings = nullptr);
+                           const LayoutParams& params, const LayerSurroundings* surroundings = nullptr,
+                           const std::vector<RimPixel>* rim = nullptr);
 
 /// build_seam_evidence + find_layout + refine_layout.
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,

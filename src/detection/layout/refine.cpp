@@ -7,7 +7,8 @@
 // prior on each size (sizes stay within the tolerance); the per-box yaw follows the fitted
 // side slopes. Where an edge lies within the pixel footprint depends on whether the side faces
 // the camera (its wall hides the floor behind it) or not: each side's samples are corrected by
-// half a footprint accordingly (outline_footprint_correction, seam_footprint_correction).
+// half a footprint accordingly (outline_footprint_correction, seam_footprint_correction); where
+// the camera left the mixed pixels straddling an outline edge, their depth places the edge.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -16,6 +17,7 @@
 #include "layout_internal.hpp"
 #include "layout_scoring.hpp"
 #include "refine_joint.hpp"
+#include "side_samples.hpp"
 
 namespace palletd {
 
@@ -74,108 +76,6 @@ class PointGrid {
   std::vector<std::vector<std::uint32_t>> bins_;
 };
 
-}  // namespace
-
-namespace {
-
-/// Bilinear seam value at a layer point (0 outside the raster).
-double seam_at(const SeamEvidence& ev, const Eigen::Vector2d& p) {
-  const double fx = (p.x() - ev.origin_m.x()) / ev.cell_m - 0.5, fy = (p.y() - ev.origin_m.y()) / ev.cell_m - 0.5;
-  if (!(fx >= 0 && fy >= 0 && fx < ev.width - 1 && fy < ev.height - 1)) return 0.0;
-  const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-  const double ax = fx - ix, ay = fy - iy;
-  return (1 - ay) * ((1 - ax) * ev.at(ix, iy) + ax * ev.at(ix + 1, iy)) +
-         ay * ((1 - ax) * ev.at(ix, iy + 1) + ax * ev.at(ix + 1, iy + 1));
-}
-
-/// One side of a box in its component's layout frame.
-struct SideRef {
-  double pos = 0;          ///< current side position along `axis` [m]
-  double lo = 0, hi = 0;   ///< measured stretch along the side [m]
-  double t_ref = 0;        ///< box centre along the side [m]
-  int axis = 0, sign = 1;
-};
-
-SideRef side_of(const JointBox& b, int axis, int sign, double margin_m) {
-  SideRef s;
-  s.axis = axis;
-  s.sign = sign;
-  const int o = 1 - axis;
-  s.pos = b.center[axis] + sign * b.half[axis];
-  s.t_ref = b.center[o];
-  s.lo = b.center[o] - b.half[o] + margin_m;
-  s.hi = b.center[o] + b.half[o] - margin_m;
-  return s;
-}
-
-/// Outline side: per slice along the side, walk the box's own layer points outward from inside
-/// the box and stop at the first gap (no points over 2.5 footprints); the edge is the last point
-/// plus half a pixel. The edge may lie up to window_m beyond the current side (points are read
-/// a gap further to see it end). Samples (t, p) in the frame.
-std::vector<Eigen::Vector2d> outline_samples(const SideRef& s, const std::vector<Eigen::Vector2d>& local,
-                                             double pitch_m, double window_m, double window_in_m) {
-  std::vector<Eigen::Vector2d> out;
-  if (s.hi <= s.lo) return out;
-  const double slice = 1.5 * pitch_m, gap = 2.5 * pitch_m;
-  const int n = std::max(1, static_cast<int>((s.hi - s.lo) / slice));
-  std::vector<std::vector<double>> across(static_cast<std::size_t>(n));
-  const int o = 1 - s.axis;
-  for (const auto& q : local) {
-    const double t = q[o];
-    if (t < s.lo || t >= s.hi) continue;
-    const double u = s.sign * (q[s.axis] - s.pos);  // outward from the current side [m]
-    if (u < -window_in_m || u > window_m + gap) continue;
-    const auto k = static_cast<std::size_t>(std::min(n - 1, static_cast<int>((t - s.lo) / (s.hi - s.lo) * n)));
-    across[k].push_back(u);
-  }
-  for (std::size_t k = 0; k < across.size(); ++k) {
-    auto& v = across[k];
-    if (v.empty()) continue;
-    std::sort(v.begin(), v.end());
-    if (v.front() > -window_in_m + gap) continue;  // the slice does not start on the box top
-    double edge = v.front();
-    for (std::size_t i = 1; i < v.size() && v[i] - edge < gap; ++i) edge = v[i];
-    if (edge > window_m) continue;  // the edge is not seen within the window
-    const double t = s.lo + (static_cast<double>(k) + 0.5) * (s.hi - s.lo) / n;
-    out.emplace_back(t, s.pos + s.sign * (edge + 0.5 * pitch_m));
-  }
-  return out;
-}
-
-/// Shared side: per slice, walk the seam raster outward from inside the box to where it first
-/// reaches 0.5 (the box's own edge of the seam band; sub-cell by linear interpolation).
-std::vector<Eigen::Vector2d> seam_samples(const SideRef& s, const SeamEvidence& ev, const LayoutFrame& frame,
-                                          double window_m, double window_in_m) {
-  std::vector<Eigen::Vector2d> out;
-  if (s.hi <= s.lo) return out;
-  const double step = ev.cell_m;
-  const int n = std::max(1, static_cast<int>((s.hi - s.lo) / step));
-  const int o = 1 - s.axis;
-  Eigen::Vector2d dir_u = Eigen::Vector2d::Zero();
-  dir_u[s.axis] = s.sign;
-  const Eigen::Vector2d du = frame.to_layer(dir_u) - frame.to_layer(Eigen::Vector2d::Zero());
-  for (int k = 0; k < n; ++k) {
-    const double t = s.lo + (k + 0.5) * (s.hi - s.lo) / n;
-    Eigen::Vector2d q;
-    q[s.axis] = s.pos;
-    q[o] = t;
-    const Eigen::Vector2d base = frame.to_layer(q);
-    double u = -window_in_m;
-    double prev = seam_at(ev, base + u * du);
-    if (prev >= 0.5) continue;  // starts in a seam: no box top to walk from
-    for (u += step; u <= window_m; u += step) {
-      const double v = seam_at(ev, base + u * du);
-      if (v >= 0.5) {
-        const double cross = u - step + step * (0.5 - prev) / (v - prev);
-        out.emplace_back(t, s.pos + s.sign * cross);
-        break;
-      }
-      prev = v;
-    }
-  }
-  return out;
-}
-
 /// Huber weights (times the inverse variances) of side turns around their common turn: a side
 /// whose slope is off by more than two of its sigmas counts less.
 template <typename Turn>
@@ -202,7 +102,8 @@ std::vector<double> huber_turn_weights(const std::vector<Turn>& turns) {
 
 LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                            const std::vector<BoxFormat>& formats, const SeamEvidence* seams,
-                           const LayoutParams& params, const LayerSurroundings* surroundings) {
+                           const LayoutParams& params, const LayerSurroundings* surroundings,
+                           const std::vector<RimPixel>* rim) {
   LayoutResult out = found;
   if (found.status != DetectionStatus::ok || found.boxes.empty()) return out;
   double layer_area = 0;
@@ -264,6 +165,7 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     std::vector<bool> along_x(n);
     std::vector<double> local_pitch(n, pitch);
     std::vector<std::vector<Eigen::Vector2d>> local(n);
+    std::vector<std::vector<Eigen::Vector3d>> local_rim(n);  // (x, y) in the frame, top share
     for (std::size_t k = 0; k < n; ++k) {
       const Box2d& box = out.boxes[idx[k]];
       along_x[k] = std::abs(std::remainder(box.yaw_rad - theta, M_PI)) < M_PI / 4;
@@ -287,6 +189,14 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                    local[k].push_back(q);
                    if (d.x() < jb[k].half.x() - window && d.y() < jb[k].half.y() - window) ++inside;
                  });
+      if (rim != nullptr) {
+        for (const RimPixel& r : *rim) {
+          const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(r.at_m.cast<double>()));
+          const Eigen::Vector2d d = (q - jb[k].center).cwiseAbs();
+          if (d.x() > jb[k].half.x() + collect || d.y() > jb[k].half.y() + collect) continue;
+          local_rim[k].emplace_back(q.x(), q.y(), static_cast<double>(r.top_share));
+        }
+      }
       const double inner_area = std::max(0.0, 2 * (jb[k].half.x() - window)) * std::max(0.0, 2 * (jb[k].half.y() - window));
       if (inside > 50) local_pitch[k] = std::sqrt(inner_area / static_cast<double>(inside));
     }
@@ -323,7 +233,10 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
             const Eigen::Vector2d du = cf.frame.to_layer(out_dir) - cf.frame.to_layer(Eigen::Vector2d::Zero());
             view_slope = du.dot(camera_layer.head<2>() - mid_l) / camera_layer.z();
           }
-          const double shift_outline = view_known ? sign * outline_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
+          const double shift_outline = view_known ? outline_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
+          // Mixed pixels measure where the edge lies in their footprint unless the side faces the
+          // camera (its pixels then mix the top with the wall, not with what lies beyond).
+          const std::vector<Eigen::Vector3d>* side_rim = !view_known || view_slope <= 0.0 ? &local_rim[k] : nullptr;
           const double shift_seam = view_known ? sign * seam_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
           auto shifted = [](std::vector<Eigen::Vector2d> v, double d) {
             for (auto& q : v) q.y() += d;
@@ -351,12 +264,12 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
             return kept;
           };
           if (!shared || !use_seams) {
-            samples = shifted(seen(outline_samples(s, local[k], lp, window, win_in)), shift_outline);
+            samples = seen(outline_samples(s, local[k], side_rim, lp, window, win_in, shift_outline));
           } else {
             // The box's edge of the seam band; where the raster shows none, where the box's own
             // points end (a hole, a gap the seam raster leaves out).
             samples = shifted(seam_samples(s, *seams, cf.frame, window, win_in), shift_seam);
-            const std::vector<Eigen::Vector2d> own = shifted(seen(outline_samples(s, local[k], lp, window, win_in)), shift_outline);
+            const std::vector<Eigen::Vector2d> own = seen(outline_samples(s, local[k], side_rim, lp, window, win_in, shift_outline));
             const double reach_t = 1.5 * lp;
             // Slices where the raster shows no band but the box's points end (a hole).
             std::vector<Eigen::Vector2d> extra;

@@ -32,7 +32,8 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
   }
   const LayoutResult found = find_layout(layer.polygons, formats, p, &seams, &around);
   if (!p.refine || p.search == SearchMode::paper) return found;
-  return refine_layout(found, layer, formats, &seams, p, &around);
+  const std::vector<RimPixel> rim = build_layer_rim(frame, cloud, layer);
+  return refine_layout(found, layer, formats, &seams, p, &around, &rim);
 }
 
 }  // namespace palletd

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -91,6 +92,55 @@ LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCl
     }
   }
   return out;
+}
+
+std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                                      double min_drop_m) {
+  std::vector<RimPixel> rim;
+  const Intrinsics& in = frame.intrinsics;
+  if (layer.status != DetectionStatus::ok || layer.polygons.empty() || !in.valid() ||
+      cloud.width != in.width || cloud.height != in.height || cloud.points.size() != frame.pixel_count()) {
+    return rim;
+  }
+  const Plane& plane = layer.plane_camera;
+  // Where a pixel's ray meets the plane (only the raster's homography is used; coarse cells keep
+  // it within the raster size limit on any layer).
+  const auto geo = layout_detail::layer_raster_geometry(in, layer, 0.02, 0.1);
+  if (!geo) return rim;
+  const double band_m = std::max(0.015, layer.diagnostics.passthrough_tolerance_m);
+  // Depth below the plane per pixel [m]; NaN without depth.
+  auto below = [&](int u, int v) {
+    if (u < 0 || v < 0 || u >= in.width || v >= in.height) return std::numeric_limits<double>::quiet_NaN();
+    const Eigen::Vector3f& p = cloud.at(u, v);
+    if (!std::isfinite(p.x()) || !std::isfinite(p.z())) return std::numeric_limits<double>::quiet_NaN();
+    return -plane.signed_distance(p.cast<double>());
+  };
+  constexpr int kDirs[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  for (int v = 0; v < in.height; ++v) {
+    for (int u = 0; u < in.width; ++u) {
+      const double h = below(u, v);
+      if (!(h > band_m)) continue;
+      double share_sum = 0.0;
+      int n = 0;
+      for (const auto& d : kDirs) {
+        // The level pixel on one side, the surface beyond on the other.
+        const double h_level = below(u - d[0], v - d[1]);
+        if (!(std::abs(h_level) <= band_m)) continue;
+        const double h_beyond = below(u + d[0], v + d[1]);
+        if (!(h_beyond >= min_drop_m) || !(h_beyond > h)) continue;
+        share_sum += std::clamp(1.0 - h / h_beyond, 0.0, 1.0);
+        ++n;
+      }
+      if (n == 0) continue;
+      double fx = 0.0, fy = 0.0;
+      if (!geo->cell_of(u, v, &fx, &fy)) continue;
+      RimPixel r;
+      r.at_m = (geo->origin_m + geo->cell_m * Eigen::Vector2d(fx, fy)).cast<float>();
+      r.top_share = static_cast<float>(share_sum / n);
+      rim.push_back(r);
+    }
+  }
+  return rim;
 }
 
 }  // namespace palletd
