@@ -245,6 +245,33 @@ TEST_CASE("refine: robust edge line ignores outlier samples", "[refine]") {
   CHECK(line.inliers <= 80);
 }
 
+TEST_CASE("refine: an edge line turned beyond any box is fitted flat", "[refine]") {
+  // A seam side of a pinwheel's inner box at 176 x 132 (20 mm pixels), truly at -5.4 mm: nine
+  // slices on the half of the side away from the box centre (t_ref -0.1 m; the rest of the seam
+  // band is not seen), the first three walked on into the hole beyond the seam, the others
+  // scattered by the pixel quantisation.
+  const std::vector<double> p_mm{17.8, 16.2, 8.7, -5.4, 1.5, 4.5, -1.1, -6.3, -4.7};
+  std::vector<Eigen::Vector2d> samples;
+  for (std::size_t k = 0; k < p_mm.size(); ++k) samples.emplace_back(0.015 * static_cast<double>(k), 0.001 * p_mm[k]);
+  const double t_ref = -0.1, truth = -0.0054;
+  const layout_detail::EdgeLine free = layout_detail::fit_edge_line(samples, t_ref, 0.003, 8);
+  REQUIRE(free.ok);
+  CHECK(std::abs(free.slope) > std::tan(5.0 * M_PI / 180.0));
+  CHECK(std::abs(free.offset_m - truth) > 0.02);  // the strays carried the side away
+  const double max_slope = std::tan(5.0 * M_PI / 180.0);
+  const layout_detail::EdgeLine flat = layout_detail::fit_edge_line(samples, t_ref, 0.003, 8, max_slope);
+  REQUIRE(flat.ok);
+  CHECK(flat.slope == 0.0);
+  CHECK(std::isinf(flat.sigma_slope));  // no turn measured
+  CHECK(std::abs(flat.offset_m - truth) < 0.01);  // within half a pixel
+  // A side within the bound keeps its slope.
+  std::vector<Eigen::Vector2d> turned;
+  for (int k = 0; k < 12; ++k) turned.emplace_back(-0.1 + 0.02 * k, 0.001 + 0.05 * (-0.1 + 0.02 * k));
+  const layout_detail::EdgeLine kept = layout_detail::fit_edge_line(turned, 0.0, 0.001, 5, max_slope);
+  REQUIRE(kept.ok);
+  CHECK(kept.slope == Approx(0.05).margin(1e-6));
+}
+
 TEST_CASE("refine: joint solve chains a pressed row to its measured ends", "[refine]") {
   using namespace layout_detail;
   // Three boxes in a row; only the outer sides are measured, the two seams are unseen.

@@ -33,6 +33,10 @@ constexpr double kMinDrop_m = 0.1;
 /// edge (LayerParams::unobserved_gap_m's default) [m].
 constexpr double kUnseenGap_m = 0.05;
 
+/// The steepest side slope taken from a fit: boxes of a layer stand within a few degrees of the
+/// orientation the search found (a box turned further is not refined, below).
+const double kMaxSideSlope = std::tan(5.0 * M_PI / 180.0);
+
 /// Layer points binned in a coarse grid so that each box only visits its neighbourhood.
 class PointGrid {
  public:
@@ -283,7 +287,7 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
             slices = static_cast<std::size_t>((s.hi - s.lo) / seams->cell_m);
           }
           const int min_samples = std::max(5, static_cast<int>(0.3 * static_cast<double>(slices)));
-          const EdgeLine line = fit_edge_line(samples, s.t_ref, floor_m, min_samples);
+          const EdgeLine line = fit_edge_line(samples, s.t_ref, floor_m, min_samples, kMaxSideSlope);
           if (!line.ok) {
             unseen[k][static_cast<std::size_t>(axis)][static_cast<std::size_t>(si)] = shared;
             continue;

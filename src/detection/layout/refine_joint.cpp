@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 
@@ -19,44 +20,59 @@ double median_of(std::vector<double> v) {
 
 }  // namespace
 
-EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref, double floor_m, int min_samples) {
+EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref, double floor_m, int min_samples,
+                       double max_slope) {
   EdgeLine line;
   const auto n = samples.size();
   if (n < static_cast<std::size_t>(std::max(min_samples, 2))) return line;
   std::vector<double> p(n), w(n, 1.0), r(n);
   for (std::size_t i = 0; i < n; ++i) p[i] = samples[i].y();
-  double a = median_of(p), b = 0.0, tm = t_ref;  // p = a + b (t - tm)
+  double a = 0.0, b = 0.0, tm = t_ref;  // p = a + b (t - tm)
   double scale = floor_m;
   constexpr double kTukey = 4.685;
-  for (int it = 0; it < 10; ++it) {
-    for (std::size_t i = 0; i < n; ++i) r[i] = samples[i].y() - (a + b * (samples[i].x() - tm));
-    std::vector<double> absr(n);
-    for (std::size_t i = 0; i < n; ++i) absr[i] = std::abs(r[i]);
-    // The first pass starts from a flat line: let its scale cover a real slope.
-    scale = std::max(1.4826 * median_of(absr), floor_m);
-    for (std::size_t i = 0; i < n; ++i) {
-      const double u = r[i] / (kTukey * scale);
-      w[i] = std::abs(u) < 1.0 ? (1 - u * u) * (1 - u * u) : 0.0;
+  // Tukey-reweighted least squares from a flat line through the median; with `flat` the slope
+  // stays 0 (a robust location across the side).
+  auto fit = [&](bool flat) {
+    a = median_of(p);
+    b = 0.0;
+    tm = t_ref;
+    std::fill(w.begin(), w.end(), 1.0);
+    for (int it = 0; it < 10; ++it) {
+      for (std::size_t i = 0; i < n; ++i) r[i] = samples[i].y() - (a + b * (samples[i].x() - tm));
+      std::vector<double> absr(n);
+      for (std::size_t i = 0; i < n; ++i) absr[i] = std::abs(r[i]);
+      // The first pass starts from a flat line: let its scale cover a real slope.
+      scale = std::max(1.4826 * median_of(absr), floor_m);
+      for (std::size_t i = 0; i < n; ++i) {
+        const double u = r[i] / (kTukey * scale);
+        w[i] = std::abs(u) < 1.0 ? (1 - u * u) * (1 - u * u) : 0.0;
+      }
+      double sw = 0, st = 0, sp = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        sw += w[i]; st += w[i] * samples[i].x(); sp += w[i] * samples[i].y();
+      }
+      if (sw <= 0) return false;
+      tm = st / sw;
+      const double pm = sp / sw;
+      double stt = 0, stp = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double dt = samples[i].x() - tm;
+        stt += w[i] * dt * dt;
+        stp += w[i] * dt * (samples[i].y() - pm);
+      }
+      const double nb = flat || stt <= 1e-12 ? 0.0 : stp / stt;
+      const bool converged = std::abs(pm - a) < 1e-6 * scale && std::abs(nb - b) < 1e-9;
+      a = pm;
+      b = nb;
+      if (converged && it > 2) break;
     }
-    double sw = 0, st = 0, sp = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      sw += w[i]; st += w[i] * samples[i].x(); sp += w[i] * samples[i].y();
-    }
-    if (sw <= 0) return line;
-    tm = st / sw;
-    const double pm = sp / sw;
-    double stt = 0, stp = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double dt = samples[i].x() - tm;
-      stt += w[i] * dt * dt;
-      stp += w[i] * dt * (samples[i].y() - pm);
-    }
-    const double nb = stt > 1e-12 ? stp / stt : 0.0;
-    const bool converged = std::abs(pm - a) < 1e-6 * scale && std::abs(nb - b) < 1e-9;
-    a = pm;
-    b = nb;
-    if (converged && it > 2) break;
-  }
+    return true;
+  };
+  if (!fit(false)) return line;
+  // A side turned further than any box in a layer is a fit pulled by stray samples (the far end
+  // of a seam band, a hole's edge): its position is the robust location instead, its turn unknown.
+  const bool flat = std::abs(b) > max_slope;
+  if (flat && !fit(true)) return line;
   int inliers = 0;
   double stt = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -71,8 +87,8 @@ EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref
   line.slope = b;
   line.offset_m = a + b * (t_ref - tm);
   const double var_a = scale * scale / inliers;
-  const double var_b = stt > 1e-12 ? scale * scale / stt : 1.0;
-  line.sigma_slope = std::sqrt(var_b);
+  const double var_b = flat ? max_slope * max_slope : (stt > 1e-12 ? scale * scale / stt : 1.0);
+  line.sigma_slope = flat ? std::numeric_limits<double>::infinity() : std::sqrt(var_b);
   line.sigma_offset_m = std::sqrt(var_a + (t_ref - tm) * (t_ref - tm) * var_b);
   return line;
 }

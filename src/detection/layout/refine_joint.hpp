@@ -2,6 +2,7 @@
 // least-squares fit of all boxes of a layout component in its layout frame.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -22,9 +23,11 @@ struct EdgeLine {
 
 /// Robust line fit (Tukey biweight, scale from the MAD of the residuals, floored at floor_m,
 /// the quantisation of the samples). Fails (ok = false) with fewer than min_samples samples
-/// or fewer than min_samples inliers.
+/// or fewer than min_samples inliers. A fitted slope steeper than max_slope is taken for stray
+/// samples: the side is then fitted flat (slope 0, not measured: sigma_slope infinite; its
+/// offset's standard error allows for a slope of max_slope).
 EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref, double floor_m,
-                       int min_samples = 5);
+                       int min_samples = 5, double max_slope = std::numeric_limits<double>::infinity());
 
 /// One box of the joint fit in the layout frame: axis-aligned, sides at center +- half.
 struct JointBox {
