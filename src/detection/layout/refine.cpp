@@ -298,9 +298,13 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
           // x-sides: x = c + h - phi (y - cy); y-sides: y = c + h + phi (x - cx).
           const double phi = axis == 0 ? -line.slope : line.slope;
           // The same pixel-scale bias, of opposite sign at the two ends of the stretch, tilts
-          // the line however many samples there are.
+          // the line however many samples there are. A seam narrower than a pixel darkens the
+          // pixel it falls in wherever it lies in it: it is placed to the pixel only, and a
+          // whole pixel's step along the side can go unseen (an outline edge is placed within
+          // the pixel by the rim's mixed depths and by where the layer points end).
           const double half_stretch = std::max(0.5 * (s.hi - s.lo), lp);
-          const double sigma_slope = std::hypot(line.sigma_slope, 0.2 * lp / half_stretch);
+          const double bias_px = shared && use_seams ? 0.5 : 0.2;
+          const double sigma_slope = std::hypot(line.sigma_slope, bias_px * lp / half_stretch);
           const double w = 1.0 / (sigma_slope * sigma_slope);
           turns.push_back({k, phi, w});
         }
