@@ -159,9 +159,9 @@ TEST_CASE("detect() gets the bundled brick frame exactly") {
   check_bundled_frames({"05_brick_300x200_o3d303-small"});
 }
 
-// Generated frames at 176 x 132 (about 17 mm per pixel on the layer) kept in tests/data/coarse
-// (palletctl simulate --pattern all --profile all --fill 0.3:1 --removal all --tilt-max 30,
-// seed 12 frame 116 and seed 14 frame 106): outlines whose uncertainty decides.
+// Generated frames, most at 176 x 132 (about 17 mm per pixel on the layer), kept in
+// tests/data/coarse (palletctl simulate --pattern all --profile all --fill 0.3:1 --removal all
+// --tilt-max 30; seed 12 frame 116 and seed 14 frame 106): outlines whose uncertainty decides.
 // The brick's staggered ends come out washed into slopes: its end boxes keep less than 0.9 of
 // their area inside the outline (LayoutParams::outline_tolerance_pitches; 0 loses two boxes).
 TEST_CASE("detect() keeps the end boxes of a brick layer whose steps are washed out at a coarse pitch") {
@@ -170,15 +170,22 @@ TEST_CASE("detect() keeps the end boxes of a brick layer whose steps are washed 
 
 // The chimney's two chiralities differ in outline score by 2.6 % of a box, more than the 2 %
 // margin but less than what an outline off by half a pixel at one box end makes; the seams pick
-// the true one by far (tie_margin_m2). Its separate column of three boxes is turned by up to
-// 2.3 deg at this pitch, so the check is on the arrangement and positions, not the exact flag.
+// the true one by far (tie_margin_m2). Its separate column of three boxes needs the rim's mixed
+// pixels and seams that do not tilt it (a seam is placed to the pixel only) to keep within 2 deg.
 TEST_CASE("detect() lets the seams choose between layouts an outline half a pixel off cannot separate") {
-  const BundledRun run = run_bundled("coarse/chimney_315x232_near_tie_o3d303-small");
+  check_bundled_frames({"coarse/chimney_315x232_near_tie_o3d303-small"});
+}
+
+// Seed 12 frame 141 (176 x 132): a pinwheel's inner box whose seam side walks on into the hole
+// in three of nine slices; a free line through them turned 14 deg and carried the side 26 mm
+// (fit_edge_line's max_slope). Seed 13 frame 75 (352 x 264): a 17 mm gap between two boxes seen
+// in every slice but too scattered for a line; taken for no seam, it pressed the boxes together
+// and moved one 16 mm.
+TEST_CASE("detect() keeps a box whose seam side has stray or scattered samples in place") {
+  check_bundled_frames({"coarse/pinwheel_315x232_seam_stray_o3d303-small"});
+  const BundledRun run = run_bundled("coarse/pinwheel_315x232_scattered_seam_o3d303");
   REQUIRE(run.eval.status == "ok");
-  CHECK_FALSE(run.eval.ambiguous);
-  CHECK(run.eval.matched == run.eval.truth_boxes);
-  CHECK(run.eval.detected_boxes == run.eval.truth_boxes);
-  for (double e : run.eval.position_errors_mm) CHECK(e < 10.0);
+  CHECK(run.eval.exact);  // outline-tied: the seams decide, and may flag; this one they resolve
 }
 
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {

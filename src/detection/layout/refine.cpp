@@ -289,7 +289,10 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
           const int min_samples = std::max(5, static_cast<int>(0.3 * static_cast<double>(slices)));
           const EdgeLine line = fit_edge_line(samples, s.t_ref, floor_m, min_samples, kMaxSideSlope);
           if (!line.ok) {
-            unseen[k][static_cast<std::size_t>(axis)][static_cast<std::size_t>(si)] = shared;
+            // No seam where too few slices saw one: pressed to the neighbour. A seam seen but
+            // too scattered for a line is no contact either.
+            const bool seen_seam = samples.size() >= static_cast<std::size_t>(min_samples);
+            unseen[k][static_cast<std::size_t>(axis)][static_cast<std::size_t>(si)] = shared && !seen_seam;
             continue;
           }
           // Pixel-scale bias of an edge estimate is not averaged away by many samples.
