@@ -245,3 +245,43 @@ TEST_CASE("solve_layout with depth noise and dropouts") {
     solve_unflagged(l, render(l, true, false, Noise{0.0015, 0.02, 5U}), 0.004);
   }
 }
+
+TEST_CASE("a line of pixels without depth is a seam when it is dark, not when it is as bright as the tops") {
+  // A glint (or saturation) leaves pixels without depth on a bright top; a gap leaves them
+  // without depth and dark. Both as a line across the middle of a box, depth showing no gap.
+  const KnownLayout l = centred_pinwheel(false);
+  const Box2d box = truth_boxes(l).front();
+  auto with_line = [&](std::uint16_t intensity) {
+    Scene s = render(l, false, true);
+    const Eigen::Vector2d across(-std::sin(box.yaw_rad), std::cos(box.yaw_rad));
+    for (double t = -0.12; t <= 0.12; t += 0.001) {
+      const Eigen::Vector2d q = box.center + t * across;  // layer frame: camera x, -camera y at 1.5 m
+      const int u = static_cast<int>(std::lround(q.x() / 1.5 * 500.0 + 319.5));
+      const int v = static_cast<int>(std::lround(-q.y() / 1.5 * 500.0 + 239.5));
+      const std::size_t i = static_cast<std::size_t>(v) * 640 + static_cast<std::size_t>(u);
+      s.frame.depth[i] = 0;
+      s.cloud.points[i] = Eigen::Vector3f::Constant(NAN);
+      s.frame.intensity[i] = intensity;
+    }
+    return s;
+  };
+  auto peak_at_centre = [&](const Scene& s) {
+    const SeamEvidence ev = build_seam_evidence(s.frame, s.cloud, s.layer);
+    REQUIRE_FALSE(ev.empty());
+    const Eigen::Vector2d along(std::cos(box.yaw_rad), std::sin(box.yaw_rad));
+    float peak = 0.f;
+    for (double o = -0.006; o <= 0.006; o += 0.001) {
+      const Eigen::Vector2d p = box.center + o * along;
+      peak = std::max(peak, ev.at(static_cast<int>((p.x() - ev.origin_m.x()) / ev.cell_m),
+                                  static_cast<int>((p.y() - ev.origin_m.y()) / ev.cell_m)));
+    }
+    return peak;
+  };
+  CHECK(peak_at_centre(with_line(2000)) < 0.2f);  // as bright as the top: a glint
+  CHECK(peak_at_centre(with_line(300)) > 0.8f);   // dark: a gap
+  // Without intensity, a pixel without depth counts as a gap.
+  Scene no_intensity = with_line(2000);
+  no_intensity.frame.intensity.clear();
+  no_intensity.frame.intensity_bits = 0;
+  CHECK(peak_at_centre(no_intensity) > 0.8f);
+}

@@ -49,6 +49,31 @@ float dark_line_depth(const std::vector<std::uint16_t>& inten, int width, int he
   return best;
 }
 
+/// Whether pixel (u, v), without depth, returned as much light as the layer's tops around it:
+/// its intensity at least kBrightDropout of the median over the pixels within two of it whose
+/// depth lies on the plane (within band_m). A gap returns little light; a pixel left without
+/// depth on a bright top is a specular glint, saturation or a random dropout, not a seam.
+/// False without such neighbours.
+bool bright_dropout(const std::vector<std::uint16_t>& inten, const OrganizedCloud& cloud, const Plane& plane,
+                    double band_m, int u, int v) {
+  constexpr double kBrightDropout = 0.9;
+  constexpr int kReach = 2;  // pixels
+  std::vector<float> tops;
+  for (int y = std::max(0, v - kReach); y <= std::min(cloud.height - 1, v + kReach); ++y) {
+    for (int x = std::max(0, u - kReach); x <= std::min(cloud.width - 1, u + kReach); ++x) {
+      const Eigen::Vector3f& p = cloud.at(x, y);
+      if (!std::isfinite(p.x()) || !std::isfinite(p.z())) continue;
+      if (std::abs(plane.signed_distance(p.cast<double>())) > band_m) continue;
+      tops.push_back(static_cast<float>(inten[static_cast<std::size_t>(y) * static_cast<std::size_t>(cloud.width) + static_cast<std::size_t>(x)]));
+    }
+  }
+  if (tops.size() < 3) return false;
+  const auto mid = tops.begin() + static_cast<long>(tops.size() / 2);
+  std::nth_element(tops.begin(), mid, tops.end());
+  const float own = static_cast<float>(inten[static_cast<std::size_t>(v) * static_cast<std::size_t>(cloud.width) + static_cast<std::size_t>(u)]);
+  return own >= kBrightDropout * *mid;
+}
+
 }  // namespace
 
 SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud,
@@ -145,8 +170,11 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
     float s;
     if (!std::isfinite(p.x()) || !std::isfinite(p.z())) {
       // No measurement: a gap or a dark edge, or a random dropout. The layout stage keeps only
-      // line-like runs of these along its axes (SeamTable), so scattered dropouts fade.
-      s = 1.f;
+      // line-like runs of these along its axes (SeamTable), so scattered dropouts fade. Where
+      // the intensity shows the pixel as bright as the tops around it, it is no gap.
+      const int u = static_cast<int>(pix % static_cast<std::size_t>(in.width));
+      const int v = static_cast<int>(pix / static_cast<std::size_t>(in.width));
+      s = intensity_sigma > 0 && bright_dropout(frame.intensity, cloud, plane, step, u, v) ? 0.f : 1.f;
     } else {
       const double below = -plane.signed_distance(p.cast<double>());
       s = static_cast<float>(std::clamp((below - step) / step, 0.0, 1.0));
