@@ -194,8 +194,8 @@ struct RimPixel {
 };
 
 /// The layer's mixed rim pixels: below the level band (build_layer_surroundings) next to a pixel
-/// at the layer's level (4-neighbourhood), with the pixel straight on beyond them lower still,
-/// at least min_drop_m below the plane. top_share = 1 - (its depth below the plane) / (the
+/// of the layer (LayerResult::point_pixels, 4-neighbourhood), with the pixel straight on beyond
+/// them lower still, at least min_drop_m below the plane. top_share = 1 - (its depth below the plane) / (the
 /// depth beyond), averaged over the directions that qualify. Cameras that blank mixed pixels
 /// (flying-pixel filters) give none. Empty when the layer is not ok.
 std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,

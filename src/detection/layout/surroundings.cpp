@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include <opencv2/core.hpp>
@@ -115,17 +116,33 @@ std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& 
     if (!std::isfinite(p.x()) || !std::isfinite(p.z())) return std::numeric_limits<double>::quiet_NaN();
     return -plane.signed_distance(p.cast<double>());
   };
+  // The layer's own pixels; only their 4-neighbours can be rim pixels.
+  const auto width = static_cast<std::size_t>(in.width);
+  std::vector<std::uint8_t> state(frame.pixel_count(), 0);  // 1 = layer, 2 = visited
+  for (const std::int32_t i : layer.point_pixels) {
+    if (i >= 0 && static_cast<std::size_t>(i) < state.size()) state[static_cast<std::size_t>(i)] = 1;
+  }
+  auto on_layer = [&](int u, int v) {
+    return u >= 0 && v >= 0 && u < in.width && v < in.height &&
+           state[static_cast<std::size_t>(v) * width + static_cast<std::size_t>(u)] == 1;
+  };
   constexpr int kDirs[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-  for (int v = 0; v < in.height; ++v) {
-    for (int u = 0; u < in.width; ++u) {
+  for (const std::int32_t i : layer.point_pixels) {
+    if (i < 0 || static_cast<std::size_t>(i) >= state.size()) continue;
+    const int lu = static_cast<int>(static_cast<std::size_t>(i) % width), lv = static_cast<int>(static_cast<std::size_t>(i) / width);
+    for (const auto& e : kDirs) {
+      const int u = lu + e[0], v = lv + e[1];
+      if (u < 0 || v < 0 || u >= in.width || v >= in.height) continue;
+      std::uint8_t& st = state[static_cast<std::size_t>(v) * width + static_cast<std::size_t>(u)];
+      if (st != 0) continue;  // on the layer, or seen already
+      st = 2;
       const double h = below(u, v);
       if (!(h > band_m)) continue;
       double share_sum = 0.0;
       int n = 0;
       for (const auto& d : kDirs) {
-        // The level pixel on one side, the surface beyond on the other.
-        const double h_level = below(u - d[0], v - d[1]);
-        if (!(std::abs(h_level) <= band_m)) continue;
+        // The layer pixel on one side, the surface beyond on the other.
+        if (!on_layer(u - d[0], v - d[1])) continue;
         const double h_beyond = below(u + d[0], v + d[1]);
         if (!(h_beyond >= min_drop_m) || !(h_beyond > h)) continue;
         share_sum += std::clamp(1.0 - h / h_beyond, 0.0, 1.0);
