@@ -99,16 +99,36 @@ RimScene render_row(double yaw_rad, const Eigen::Vector2d& center, int count, do
   return s;
 }
 
-RimScene render_box(double yaw_rad, const Eigen::Vector2d& center) { return render_row(yaw_rad, center, 1, 0.0); }
 
 double yaw_error_deg(const Box2d& found, const Box2d& truth) {
   return std::abs(std::remainder(found.yaw_rad - truth.yaw_rad, M_PI / 2)) * 180.0 / M_PI;
 }
 
+const std::vector<BoxFormat> kRimFormats{BoxFormat{0.4, 0.3, "400x300"}};
+
+LayoutParams rim_params() {
+  LayoutParams p;
+  p.time_budget_ms = 500;
+  return p;
+}
+
+/// `trials` rows of `count` boxes turned 1-6 deg off the pixel grid (the sign alternating) at
+/// random sub-pixel offsets, the first box's centre near (x_m, 0); fn(scene) for each.
+template <typename Fn>
+void for_turned_rows(unsigned seed, int trials, int count, double gap_m, double x_m, Fn fn) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> turn(1.0, 6.0), shift(-0.01, 0.01);
+  for (int trial = 0; trial < trials; ++trial) {
+    const double yaw = (trial % 2 == 0 ? 1.0 : -1.0) * turn(rng) * M_PI / 180.0;
+    const Eigen::Vector2d center{x_m + shift(rng), shift(rng)};  // braced: left to right
+    fn(render_row(yaw, center, count, gap_m));
+  }
+}
+
 }  // namespace
 
 TEST_CASE("the rim's mixed pixels carry their share of the footprint on the top", "[layout][rim]") {
-  const RimScene s = render_box(0.05, {0.013, -0.021});
+  const RimScene s = render_row(0.05, {0.013, -0.021}, 1, 0.0);
   const std::vector<RimPixel> rim = build_layer_rim(s.frame, s.cloud, s.layer);
   // The box's perimeter is 1.4 m, some 70 footprints; most straddling pixels lie on it.
   REQUIRE(rim.size() >= 50);
@@ -143,16 +163,10 @@ TEST_CASE("at 20 mm per pixel, sides near the pixel grid keep their turn with th
   // shares, the outline sides step once or twice along their length and the refined yaw is
   // pulled towards the grid (measured on these seeds: worst 2.3 deg and 6.4 mm without the rim,
   // 0.2 deg and 0.6 mm with it).
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> turn(1.0, 6.0), shift(-0.01, 0.01);
-  LayoutParams p;
-  p.time_budget_ms = 500;
-  const std::vector<BoxFormat> formats{BoxFormat{0.4, 0.3, "400x300"}};
+  const LayoutParams p = rim_params();
   double worst_rim = 0.0, worst_plain = 0.0, worst_pos_mm = 0.0;
-  for (int trial = 0; trial < 12; ++trial) {
-    const double yaw = (trial % 2 == 0 ? 1.0 : -1.0) * turn(rng) * M_PI / 180.0;
-    const RimScene s = render_box(yaw, {shift(rng), shift(rng)});
-    const LayoutResult with_rim = solve_layout(s.frame, s.cloud, s.layer, formats, p);
+  for_turned_rows(5, 12, 1, 0.0, 0.0, [&](const RimScene& s) {
+    const LayoutResult with_rim = solve_layout(s.frame, s.cloud, s.layer, kRimFormats, p);
     REQUIRE(with_rim.status == DetectionStatus::ok);
     REQUIRE(with_rim.boxes.size() == 1);
     worst_rim = std::max(worst_rim, yaw_error_deg(with_rim.boxes[0], s.truth));
@@ -160,14 +174,14 @@ TEST_CASE("at 20 mm per pixel, sides near the pixel grid keep their turn with th
     // The same frame refined without the rim.
     LayoutParams search_only = p;
     search_only.refine = false;
-    const LayoutResult found = solve_layout(s.frame, s.cloud, s.layer, formats, search_only);
+    const LayoutResult found = solve_layout(s.frame, s.cloud, s.layer, kRimFormats, search_only);
     const SeamEvidence seams = build_seam_evidence(s.frame, s.cloud, s.layer);
     LayoutParams q = p;
     q.outline_tolerance_m = 0.5 * 0.02;
-    const LayoutResult plain = refine_layout(found, s.layer, formats, &seams, q);
+    const LayoutResult plain = refine_layout(found, s.layer, kRimFormats, &seams, q);
     REQUIRE(plain.boxes.size() == 1);
     worst_plain = std::max(worst_plain, yaw_error_deg(plain.boxes[0], s.truth));
-  }
+  });
   CHECK(worst_rim < 0.5);
   CHECK(worst_pos_mm < 3.0);
   CHECK(worst_rim < 0.5 * worst_plain);
@@ -178,19 +192,12 @@ TEST_CASE("at 20 mm per pixel, a seam narrower than a pixel does not turn its bo
   // a side a few degrees off the grid it steps by whole pixels. The outline sides, placed by the
   // rim, carry the turn (measured on these seeds: worst 0.17 deg; 0.70 deg when a seam's slope
   // counted like an outline side's).
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> turn(1.0, 6.0), shift(-0.01, 0.01);
-  LayoutParams p;
-  p.time_budget_ms = 500;
-  const std::vector<BoxFormat> formats{BoxFormat{0.4, 0.3, "400x300"}};
   double worst = 0.0;
-  for (int trial = 0; trial < 8; ++trial) {
-    const double yaw = (trial % 2 == 0 ? 1.0 : -1.0) * turn(rng) * M_PI / 180.0;
-    const RimScene s = render_row(yaw, {-0.2 + shift(rng), shift(rng)}, 2, 0.004);
-    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, formats, p);
+  for_turned_rows(7, 8, 2, 0.004, -0.2, [&](const RimScene& s) {
+    const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, kRimFormats, rim_params());
     REQUIRE(r.status == DetectionStatus::ok);
     REQUIRE(r.boxes.size() == 2);
     for (const Box2d& b : r.boxes) worst = std::max(worst, yaw_error_deg(b, s.truth));
-  }
+  });
   CHECK(worst < 0.4);
 }
