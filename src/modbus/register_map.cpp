@@ -117,6 +117,7 @@ void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrde
   if (result.ambiguous) flags |= kResAmbiguous;
   if (result.budget_exhausted) flags |= kResBudgetExhausted;
   if (result.layer_clipped) flags |= kResLayerClipped;
+  if (result.outline_unobserved) flags |= kResOutlineUnobserved;
   r[kRegResultFlags] = flags;
   put_i32(r + kRegLayerZ, metres_to_tenth_mm(result.layer_z_m), order);
   r[kRegCoverage] = unit_to_permille(result.coverage);
@@ -163,6 +164,7 @@ DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
   rec.ambiguous = (flags & kResAmbiguous) != 0;
   rec.budget_exhausted = (flags & kResBudgetExhausted) != 0;
   rec.layer_clipped = (flags & kResLayerClipped) != 0;
+  rec.outline_unobserved = (flags & kResOutlineUnobserved) != 0;
   rec.layer_z_m = tenth_mm_to_metres(get_i32(r + kRegLayerZ, order));
   rec.coverage = r[kRegCoverage] * 1e-3;
   const std::uint16_t reported = std::min<std::uint16_t>(r[kRegBoxesReported], kMaxBoxes);

@@ -50,6 +50,7 @@ void print_result(const modbus::PlcClient::TriggerResult& r) {
   if (rec.ambiguous) flags += " ambiguous";
   if (rec.budget_exhausted) flags += " search-budget-exhausted";
   if (rec.layer_clipped) flags += " layer-clipped-by-image-border";
+  if (rec.outline_unobserved) flags += " outline-partly-unobserved";
   if (!flags.empty()) std::printf("  flags:%s\n", flags.c_str());
   if (rec.boxes.empty()) return;
   std::printf("  %4s %10s %10s %10s %9s %6s %6s\n", "pick", "x[mm]", "y[mm]", "z[mm]", "yaw[deg]", "format", "score");

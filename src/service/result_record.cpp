@@ -62,6 +62,7 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
   r.ambiguous = detection.ambiguous;
   r.budget_exhausted = detection.budget_exhausted;
   r.layer_clipped = detection.clipped_by_image_border;
+  r.outline_unobserved = detection.outline_unobserved;
   r.layer_z_m = detection.status == DetectionStatus::ok ? layer_z_m(detection, base_frame) : 0.0;
   r.coverage = detection.coverage;
   auto total = detection.timing_ms.find("total");

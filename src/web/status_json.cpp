@@ -213,6 +213,7 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
   if (rec.ambiguous) flags += "ambiguous layout; ";
   if (rec.budget_exhausted) flags += "search budget exhausted; ";
   if (rec.layer_clipped) flags += "layer clipped by the image border; ";
+  if (rec.outline_unobserved) flags += "outline partly unobserved (the layer may go on where the depth ends); ";
   if (!flags.empty()) flags.resize(flags.size() - 2);
   result.push_back(row(image, modbus::kRegResultFlags, 1, "result flags", hex16(image[modbus::kRegResultFlags]),
                        flags.empty() ? "none set" : flags));

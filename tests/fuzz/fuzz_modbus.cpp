@@ -184,6 +184,7 @@ ResultRecord make_result(ByteReader& in, const HandshakeEvent& event) {
   r.ambiguous = (kind & 0x20) != 0;
   r.budget_exhausted = (kind & 0x40) != 0;
   r.layer_clipped = (kind & 0x80) != 0;
+  r.outline_unobserved = (kind & 0x01) != 0;
   // Values from the input, including NaN, infinities and absurd magnitudes.
   auto value = [&in] {
     const std::uint32_t bits = in.u32();

@@ -59,6 +59,7 @@ ResultRecord make_result(int boxes) {
   r.boxes_found = static_cast<std::uint16_t>(boxes);
   r.ambiguous = true;
   r.layer_clipped = true;
+  r.outline_unobserved = true;
   r.layer_z_m = -1.2345;
   r.coverage = 0.97;
   for (int i = 0; i < boxes; ++i) {
@@ -87,7 +88,7 @@ TEST_CASE("a result encodes into 200..530 and decodes back in both word orders",
     CHECK(image[kResultIdCopy] == 77);
     CHECK(image[kRegBoxesFound] == 40);
     CHECK(image[kRegBoxesReported] == 32);
-    CHECK(image[kRegResultFlags] == (kResAmbiguous | kResLayerClipped));
+    CHECK(image[kRegResultFlags] == (kResAmbiguous | kResLayerClipped | kResOutlineUnobserved));
     CHECK(image[kRegCoverage] == 970);
     CHECK(image[kResultStart - 1] == 0xABCD);  // outside the block untouched
     const DecodedResult out = decode_result(image, order);
@@ -96,6 +97,10 @@ TEST_CASE("a result encodes into 200..530 and decodes back in both word orders",
     CHECK(out.record.request_id == 4242);
     CHECK(out.record.recipe == 3);
     CHECK(out.record.layer_z_m == Approx(-1.2345).margin(1e-4));
+    CHECK(out.record.ambiguous);
+    CHECK_FALSE(out.record.budget_exhausted);
+    CHECK(out.record.layer_clipped);
+    CHECK(out.record.outline_unobserved);
     REQUIRE(out.record.boxes.size() == 32);
     for (std::size_t i = 0; i < 32; ++i) {
       const BoxRecord& a = in.boxes[i];

@@ -26,6 +26,7 @@ TEST_CASE("a detection that ran maps to an ok record in the camera frame with 1-
   d.boxes = {box_at(0.1, 0.2, 1.5, 0), box_at(-0.1, 0.2, 1.5, 1)};
   d.coverage = 0.97;
   d.ambiguous = true;
+  d.outline_unobserved = true;
   const auto r = palletd::to_result_record(d, false);
   CHECK(r.status == palletd::modbus::ResultStatus::kOk);
   REQUIRE(r.boxes.size() == 2);
@@ -35,6 +36,8 @@ TEST_CASE("a detection that ran maps to an ok record in the camera frame with 1-
   CHECK(r.boxes[0].yaw_deg == Approx(90.0));
   CHECK(r.layer_z_m == Approx(1.5));
   CHECK(r.ambiguous);
+  CHECK(r.outline_unobserved);
+  CHECK_FALSE(r.layer_clipped);
   CHECK(r.coverage == Approx(0.97));
 }
 

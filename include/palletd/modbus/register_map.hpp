@@ -87,6 +87,8 @@ inline constexpr std::uint16_t kFmtCameraFrame = 1u << 1;
 inline constexpr std::uint16_t kResAmbiguous = 1u << 0;
 inline constexpr std::uint16_t kResBudgetExhausted = 1u << 1;
 inline constexpr std::uint16_t kResLayerClipped = 1u << 2;
+/// Part of the layer's outline runs along pixels without depth: the layer may go on unseen there.
+inline constexpr std::uint16_t kResOutlineUnobserved = 1u << 3;
 
 /// Error codes in register 101 (the detail in 102 depends on the code).
 enum class ErrorCode : std::uint16_t {
@@ -140,6 +142,7 @@ struct ResultRecord {
   bool ambiguous = false;
   bool budget_exhausted = false;
   bool layer_clipped = false;
+  bool outline_unobserved = false;  ///< the layer may go on where the depth ends
   double layer_z_m = 0.0;       ///< layer height [m]
   double coverage = 0.0;        ///< 0..1
   double processing_ms = 0.0;   ///< detection wall time [ms] (register 113)
