@@ -170,6 +170,14 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
     std::vector<double> local_pitch(n, pitch);
     std::vector<std::vector<Eigen::Vector2d>> local(n);
     std::vector<std::vector<Eigen::Vector3d>> local_rim(n);  // (x, y) in the frame, top share
+    std::vector<Eigen::Vector3d> rim_frame;  // the whole rim in this component's frame
+    if (rim != nullptr) {
+      rim_frame.reserve(rim->size());
+      for (const RimPixel& r : *rim) {
+        const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(r.at_m.cast<double>()));
+        rim_frame.emplace_back(q.x(), q.y(), static_cast<double>(r.top_share));
+      }
+    }
     for (std::size_t k = 0; k < n; ++k) {
       const Box2d& box = out.boxes[idx[k]];
       along_x[k] = std::abs(std::remainder(box.yaw_rad - theta, M_PI)) < M_PI / 4;
@@ -193,13 +201,10 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                    local[k].push_back(q);
                    if (d.x() < jb[k].half.x() - window && d.y() < jb[k].half.y() - window) ++inside;
                  });
-      if (rim != nullptr) {
-        for (const RimPixel& r : *rim) {
-          const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(r.at_m.cast<double>()));
-          const Eigen::Vector2d d = (q - jb[k].center).cwiseAbs();
-          if (d.x() > jb[k].half.x() + collect || d.y() > jb[k].half.y() + collect) continue;
-          local_rim[k].emplace_back(q.x(), q.y(), static_cast<double>(r.top_share));
-        }
+      for (const Eigen::Vector3d& r : rim_frame) {
+        const Eigen::Vector2d d = (r.head<2>() - jb[k].center).cwiseAbs();
+        if (d.x() > jb[k].half.x() + collect || d.y() > jb[k].half.y() + collect) continue;
+        local_rim[k].push_back(r);
       }
       const double inner_area = std::max(0.0, 2 * (jb[k].half.x() - window)) * std::max(0.0, 2 * (jb[k].half.y() - window));
       if (inside > 50) local_pitch[k] = std::sqrt(inner_area / static_cast<double>(inside));

@@ -167,21 +167,19 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
     const int cell = cell_of[pix];
     if (cell < 0) continue;
     const Eigen::Vector3f& p = cloud.points[pix];
+    const int u = static_cast<int>(pix % static_cast<std::size_t>(in.width));
+    const int v = static_cast<int>(pix / static_cast<std::size_t>(in.width));
     float s;
     if (!std::isfinite(p.x()) || !std::isfinite(p.z())) {
       // No measurement: a gap or a dark edge, or a random dropout. The layout stage keeps only
       // line-like runs of these along its axes (SeamTable), so scattered dropouts fade. Where
       // the intensity shows the pixel as bright as the tops around it, it is no gap.
-      const int u = static_cast<int>(pix % static_cast<std::size_t>(in.width));
-      const int v = static_cast<int>(pix / static_cast<std::size_t>(in.width));
       s = intensity_sigma > 0 && bright_dropout(frame.intensity, cloud, plane, step, u, v) ? 0.f : 1.f;
     } else {
       const double below = -plane.signed_distance(p.cast<double>());
       s = static_cast<float>(std::clamp((below - step) / step, 0.0, 1.0));
     }
     if (intensity_sigma > 0) {
-      const int u = static_cast<int>(pix % static_cast<std::size_t>(in.width));
-      const int v = static_cast<int>(pix / static_cast<std::size_t>(in.width));
       const double z = dark_line_depth(frame.intensity, in.width, in.height, u, v) / intensity_sigma;
       s = std::max(s, static_cast<float>(params.intensity_weight * std::clamp((z - g_lo) / g_lo, 0.0, 1.0)));
     }

@@ -49,23 +49,25 @@ std::vector<Eigen::Vector2d> outline_samples(const SideRef& s, const std::vector
   std::vector<std::vector<double>> across(static_cast<std::size_t>(n));
   std::vector<std::vector<Eigen::Vector2d>> mixed(static_cast<std::size_t>(n));  // (u, top share)
   const int o = 1 - s.axis;
-  auto slice_of = [&](double t) {
-    return static_cast<std::size_t>(std::min(n - 1, static_cast<int>((t - s.lo) / (s.hi - s.lo) * n)));
-  };
-  for (const auto& q : local) {
+  // The slice of a frame point along the side and its distance outward from the current side
+  // [m]; false outside the stretch or the window.
+  auto place = [&](double x, double y, std::size_t* k, double* u) {
+    const Eigen::Vector2d q(x, y);
     const double t = q[o];
-    if (t < s.lo || t >= s.hi) continue;
-    const double u = s.sign * (q[s.axis] - s.pos);  // outward from the current side [m]
-    if (u < -window_in_m || u > window_m + gap) continue;
-    across[slice_of(t)].push_back(u);
+    if (t < s.lo || t >= s.hi) return false;
+    *u = s.sign * (q[s.axis] - s.pos);
+    if (*u < -window_in_m || *u > window_m + gap) return false;
+    *k = static_cast<std::size_t>(std::min(n - 1, static_cast<int>((t - s.lo) / (s.hi - s.lo) * n)));
+    return true;
+  };
+  std::size_t slot = 0;
+  double out_m = 0.0;
+  for (const auto& q : local) {
+    if (place(q.x(), q.y(), &slot, &out_m)) across[slot].push_back(out_m);
   }
   if (rim != nullptr) {
     for (const auto& r : *rim) {
-      const double t = r[o];
-      if (t < s.lo || t >= s.hi) continue;
-      const double u = s.sign * (r[s.axis] - s.pos);
-      if (u < -window_in_m || u > window_m + gap) continue;
-      mixed[slice_of(t)].emplace_back(u, r.z());
+      if (place(r.x(), r.y(), &slot, &out_m)) mixed[slot].emplace_back(out_m, r.z());
     }
   }
   for (std::size_t k = 0; k < across.size(); ++k) {
