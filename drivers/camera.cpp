@@ -1,5 +1,5 @@
 // The camera state machine (shared by every driver), Backoff and CameraSupervisor.
-#include "palletd/camera.hpp"
+#include "palletd/drivers/camera.hpp"
 
 #include <algorithm>
 #include <thread>

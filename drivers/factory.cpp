@@ -3,8 +3,8 @@
 
 #include "aravis/aravis_camera.hpp"
 #include "openni2/openni2_camera.hpp"
-#include "palletd/camera.hpp"
-#include "palletd/config.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/drivers/camera_config.hpp"
 #include "replay/replay_camera.hpp"
 
 namespace palletd {
@@ -14,46 +14,27 @@ std::unique_ptr<Camera> make_camera(const CameraConfig& config) {
     if (config.replay.directory.empty()) {
       throw std::invalid_argument("camera.replay.directory: the replay driver needs a folder of frames");
     }
-    ReplayOptions o;
-    o.directory = config.replay.directory;
-    o.loop = config.replay.loop;
-    o.rate_hz = config.replay.rate_hz;
+    ReplayOptions o = config.replay;
     o.intrinsics_override = config.intrinsics_override;
     return std::make_unique<ReplayCamera>(std::move(o));
   }
   if (config.driver == "aravis") {
-    const AravisCameraConfig& a = config.aravis;
+    const AravisOptions& a = config.aravis;
     if (a.pixel_format != "Coord3D_C16" && a.pixel_format != "Coord3D_ABC32f" && a.pixel_format != "Mono16") {
       throw std::invalid_argument("camera.aravis.pixel_format: '" + a.pixel_format +
                                   "' (expected Coord3D_C16, Coord3D_ABC32f or Mono16)");
     }
-    AravisOptions o;
-    o.address = a.address;
-    o.serial = a.serial;
-    o.user_id = a.user_id;
-    o.pixel_format = a.pixel_format;
-    o.mono16_scale_m = a.mono16_scale_m;
-    o.packet_size = a.packet_size;
-    o.packet_resend = a.packet_resend;
-    o.buffer_count = a.buffer_count;
-    o.software_trigger = a.software_trigger;
+    AravisOptions o = a;
     o.intrinsics_override = config.intrinsics_override;
     return std::make_unique<AravisCamera>(std::move(o));
   }
   if (config.driver == "openni2") {
-    const OpenNI2CameraConfig& n = config.openni2;
+    const OpenNI2Options& n = config.openni2;
     if (n.depth_unit_m != 0.001 && n.depth_unit_m != 0.0001) {
       throw std::invalid_argument("camera.openni2.depth_unit_m: " + std::to_string(n.depth_unit_m) +
                                   " (expected 0.001 for 1 mm or 0.0001 for 100 um)");
     }
-    OpenNI2Options o;
-    o.uri = n.uri;
-    o.width = n.width;
-    o.height = n.height;
-    o.fps = n.fps;
-    o.depth_unit_m = n.depth_unit_m;
-    o.ir_as_intensity = n.ir_as_intensity;
-    o.loop = n.loop;
+    OpenNI2Options o = n;
     o.intrinsics_override = config.intrinsics_override;
     return std::make_unique<OpenNI2Camera>(std::move(o));
   }

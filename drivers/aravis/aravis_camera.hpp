@@ -8,24 +8,10 @@
 #include <optional>
 #include <string>
 
-#include "palletd/camera.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/drivers/camera_config.hpp"
 
 namespace palletd {
-
-struct AravisOptions {
-  std::string address;   ///< IP address: opened directly, no broadcast discovery
-  std::string serial;    ///< or serial number (discovery); checked against the camera if both
-  std::string user_id;   ///< or DeviceUserID (discovery)
-  std::string pixel_format = "Coord3D_C16";  ///< Coord3D_C16 | Coord3D_ABC32f | Mono16
-  double mono16_scale_m = 0.001;  ///< [m per unit] for Mono16
-  int packet_size = 0;            ///< [bytes]; 0 = negotiate (auto packet size)
-  bool packet_resend = true;
-  int buffer_count = 8;           ///< stream buffer pool
-  bool software_trigger = true;   ///< trigger mode with TriggerSoftware when the camera has it
-  /// Free-running: this many timeouts in a row mean the stream stopped (camera faulted).
-  int timeouts_before_fault = 2;
-  std::optional<Intrinsics> intrinsics_override;
-};
 
 /// One GigE Vision camera through Aravis. All GObjects are owned by RAII wrappers in the .cpp.
 class AravisCamera final : public Camera {

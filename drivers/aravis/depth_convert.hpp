@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <optional>
 
-#include "palletd/frame.hpp"
+#include "palletd/core/frame.hpp"
 
 namespace palletd::aravis {
 
@@ -17,7 +17,7 @@ struct Scan3dParams {
   std::optional<double> invalid;   ///< Scan3dInvalidDataValue (raw), when the camera has one
 };
 
-/// Quantisation of float / offset depth: 0.1 mm, covering 6.5535 m (include/palletd/frame.hpp).
+/// Quantisation of float / offset depth: 0.1 mm, covering 6.5535 m (include/palletd/core/frame.hpp).
 inline constexpr double kQuantumM = 1e-4;
 
 /// Coord3D_C16 / Mono16: `n` little-endian 16-bit values (any alignment). Without an offset the

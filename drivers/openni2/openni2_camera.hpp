@@ -10,22 +10,10 @@
 #include <optional>
 #include <string>
 
-#include "palletd/camera.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/drivers/camera_config.hpp"
 
 namespace palletd {
-
-struct OpenNI2Options {
-  /// Device URI (as `palletctl cameras` / OpenNI::enumerateDevices lists it), a path to an .oni
-  /// recording, or empty for the first device the runtime finds.
-  std::string uri;
-  int width = 640, height = 480, fps = 30;  ///< depth video mode (live devices only)
-  double depth_unit_m = 0.001;              ///< 0.001 (DEPTH_1_MM) or 0.0001 (DEPTH_100_UM) [m]
-  bool ir_as_intensity = true;              ///< open the IR stream as intensity where there is one
-  bool loop = true;                         ///< .oni: start again after the last frame (reopens the file)
-  /// Live devices: this many timeouts in a row mean the device stopped streaming (faulted).
-  int timeouts_before_fault = 2;
-  std::optional<Intrinsics> intrinsics_override;
-};
 
 /// Whether `uri` names an .oni recording (by its extension, case-insensitive).
 bool is_oni_path(const std::string& uri);

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "openni2/frame_pairing.hpp"
-#include "palletd/expected.hpp"
+#include "palletd/core/expected.hpp"
 
 namespace palletd::openni2 {
 

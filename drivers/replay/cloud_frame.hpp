@@ -3,8 +3,8 @@
 
 #include <string>
 
-#include "palletd/expected.hpp"
-#include "palletd/frame.hpp"
+#include "palletd/core/expected.hpp"
+#include "palletd/core/frame.hpp"
 
 namespace palletd {
 

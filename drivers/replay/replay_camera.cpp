@@ -5,7 +5,7 @@
 #include <thread>
 #include <utility>
 
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "replay/cloud_frame.hpp"
 
 namespace palletd {

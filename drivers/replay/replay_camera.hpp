@@ -8,16 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "palletd/camera.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/drivers/camera_config.hpp"
 
 namespace palletd {
-
-struct ReplayOptions {
-  std::string directory;   ///< folder of frames
-  bool loop = true;        ///< start again after the last frame (the folder is listed again)
-  double rate_hz = 0.0;    ///< free-running rate [Hz]; 0 = one frame per software_trigger()
-  std::optional<Intrinsics> intrinsics_override;
-};
 
 /// Plays a folder of frames (and organized *.pcd / *.ply clouds, see cloud_frame.hpp) in name
 /// order. A bad frame file fails that grab (the error names the file) and the next grab goes

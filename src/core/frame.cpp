@@ -1,4 +1,4 @@
-#include "palletd/frame.hpp"
+#include "palletd/core/frame.hpp"
 
 #include <cmath>
 #include <limits>

@@ -1,4 +1,4 @@
-#include "palletd/geometry.hpp"
+#include "palletd/core/geometry.hpp"
 
 #include <cmath>
 

@@ -1,5 +1,5 @@
 // detect(): the named stages of the pipeline, composed. Pure: values in, values out.
-#include "palletd/detection.hpp"
+#include "palletd/detection/detection.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -43,16 +43,6 @@ std::string frame_problem(const Frame& frame) {
   return {};
 }
 
-std::string formats_problem(const std::vector<BoxFormat>& formats) {
-  if (formats.empty()) return "no box format given";
-  for (std::size_t i = 0; i < formats.size(); ++i) {
-    const BoxFormat& f = formats[i];
-    if (!(f.long_m > 0.0) || !(f.short_m > 0.0) || !std::isfinite(f.long_m) || !std::isfinite(f.short_m))
-      return "box format " + std::to_string(i) + " has a non-positive size";
-  }
-  return {};
-}
-
 }  // namespace
 
 Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, const DetectionParams& params,
@@ -75,7 +65,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
     return out;
   };
   if (std::string problem = frame_problem(frame); !problem.empty()) return finish(DetectionStatus::bad_frame, problem);
-  if (std::string problem = formats_problem(formats); !problem.empty())
+  if (std::string problem = box_formats_problem(formats); !problem.empty())
     return finish(DetectionStatus::no_layout, problem);
 
   // Stage 0: organized cloud into the caller's workspace (rays and cloud reused frame after frame).

@@ -7,7 +7,7 @@
 
 #include <Eigen/Geometry>
 
-#include "palletd/detection.hpp"
+#include "palletd/detection/detection.hpp"
 
 namespace palletd {
 

@@ -10,11 +10,11 @@
 
 #include "commands.hpp"
 #include "detect_common.hpp"
-#include "palletd/detection.hpp"
-#include "palletd/detection_json.hpp"
-#include "palletd/frame_io.hpp"
-#include "palletd/layer_debug.hpp"
-#include "palletd/overlay.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/results/detection_json.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/detection/layer_debug.hpp"
+#include "palletd/results/overlay.hpp"
 
 namespace palletd {
 

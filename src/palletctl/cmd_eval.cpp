@@ -10,10 +10,10 @@
 
 #include "commands.hpp"
 #include "detect_common.hpp"
-#include "palletd/detection.hpp"
-#include "palletd/evaluation.hpp"
-#include "palletd/frame_io.hpp"
-#include "palletd/layout.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/results/evaluation.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/detection/layout.hpp"
 
 namespace palletd {
 

@@ -9,7 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 namespace palletd {
 

@@ -17,10 +17,10 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
-#include "palletd/camera.hpp"
-#include "palletd/config.hpp"
-#include "palletd/frame_io.hpp"
-#include "palletd/recorder.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/config/config.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/frames/recorder.hpp"
 
 namespace palletd {
 

@@ -10,8 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 
-#include "palletd/frame_io.hpp"
-#include "palletd/sim.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/sim/sim.hpp"
 
 namespace palletd {
 namespace {

@@ -9,7 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
-#include "palletd/evaluation.hpp"
+#include "palletd/results/evaluation.hpp"
 #include "palletd/modbus/client.hpp"
 
 namespace palletd {

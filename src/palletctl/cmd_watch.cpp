@@ -17,7 +17,7 @@
 #include "commands.hpp"
 #include "palletd/modbus/client.hpp"
 #include "palletd/modbus/register_map.hpp"
-#include "palletd/web.hpp"
+#include "palletd/modbus/register_words.hpp"
 
 namespace palletd {
 
@@ -86,8 +86,8 @@ Expected<Poll> poll_once(modbus::PlcClient& plc) {
 
 std::string error_text(const modbus::StatusRecord& st) {
   if (st.error == modbus::ErrorCode::kNone) return "0 (no error)";
-  return std::to_string(static_cast<unsigned>(st.error)) + " " + web::error_name(st.error) + ", detail " +
-         std::to_string(st.error_detail) + ": " + web::error_sentence(st.error, st.error_detail);
+  return std::to_string(static_cast<unsigned>(st.error)) + " " + modbus::error_name(st.error) + ", detail " +
+         std::to_string(st.error_detail) + ": " + modbus::error_sentence(st.error, st.error_detail);
 }
 
 std::string one_line(const Poll& p) {
@@ -96,7 +96,7 @@ std::string one_line(const Poll& p) {
   std::snprintf(buf, sizeof buf,
                 "%s | %s | error %s | heartbeat %u | result %u (request %u, %s, %u boxes, recipe %u) | "
                 "recipe %u | missed %u | processing %.0f ms | latency %.0f ms | frames %u | reconnects %u",
-                state_word(st.status_word), web::bits_in_words(st.status_word, web::status_bit_names()).c_str(),
+                state_word(st.status_word), modbus::bits_in_words(st.status_word, modbus::status_bit_names()).c_str(),
                 error_text(st).c_str(), st.heartbeat, p.result_id, p.result_request,
                 result_status_word(p.result_status), p.boxes, p.recipe_used, st.active_recipe, st.missed_triggers,
                 st.processing_ms, st.latency_ms, st.frames_grabbed, st.camera_reconnects);
@@ -112,7 +112,7 @@ std::vector<std::string> block(const WatchArgs& a, const Poll& p, int polls) {
   out.emplace_back(buf);
   out.emplace_back(std::string("state        ") + state_word(st.status_word));
   std::string bits;
-  const auto& names = web::status_bit_names();
+  const auto& names = modbus::status_bit_names();
   for (std::size_t i = 0; i < names.size(); ++i) {
     const bool on = (st.status_word & (1u << i)) != 0;
     bits += on ? "\x1b[1;7m " + names[i] + " \x1b[0m " : "\x1b[2m " + names[i] + " \x1b[0m ";

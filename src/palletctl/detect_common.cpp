@@ -5,7 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 namespace palletd {
 

@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "palletd/config.hpp"
-#include "palletd/expected.hpp"
-#include "palletd/geometry.hpp"
+#include "palletd/config/config.hpp"
+#include "palletd/core/expected.hpp"
+#include "palletd/core/geometry.hpp"
 
 namespace palletd {
 

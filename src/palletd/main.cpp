@@ -9,7 +9,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "palletd/config.hpp"
+#include "palletd/config/config.hpp"
 #include "service_entry.hpp"
 
 namespace {

@@ -2,7 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "palletd/daemon.hpp"
+#include "daemon.hpp"
 
 namespace palletd {
 

@@ -1,8 +1,8 @@
 // palletd daemon: where main hands a validated configuration to the service.
 #pragma once
 
-#include "palletd/config.hpp"
-#include "palletd/daemon.hpp"
+#include "palletd/config/config.hpp"
+#include "daemon.hpp"
 
 namespace palletd {
 

@@ -10,9 +10,9 @@
 #include <optional>
 #include <thread>
 
-#include "palletd/camera.hpp"
-#include "palletd/expected.hpp"
-#include "palletd/frame.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/core/expected.hpp"
+#include "palletd/core/frame.hpp"
 
 namespace palletd {
 

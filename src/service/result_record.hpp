@@ -5,7 +5,7 @@
 
 #include <Eigen/Geometry>
 
-#include "palletd/detection.hpp"
+#include "palletd/detection/detection.hpp"
 #include "palletd/modbus/register_map.hpp"
 
 namespace palletd {

@@ -1,4 +1,4 @@
-#include "palletd/service.hpp"
+#include "palletd/service/service.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -9,11 +9,11 @@
 #include <spdlog/spdlog.h>
 
 #include "acquisition.hpp"
-#include "palletd/camera.hpp"
-#include "palletd/detection_json.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/results/detection_json.hpp"
 #include "palletd/modbus/server.hpp"
-#include "palletd/overlay.hpp"
-#include "palletd/recorder.hpp"
+#include "palletd/results/overlay.hpp"
+#include "palletd/frames/recorder.hpp"
 #include "result_record.hpp"
 
 namespace palletd {

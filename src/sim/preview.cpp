@@ -5,7 +5,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "palletd/sim.hpp"
+#include "palletd/sim/sim.hpp"
 
 namespace palletd::sim {
 

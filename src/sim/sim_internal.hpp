@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "palletd/sim.hpp"
+#include "palletd/sim/sim.hpp"
 
 namespace palletd::sim::detail {
 

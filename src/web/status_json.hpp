@@ -9,8 +9,8 @@
 #include <nlohmann/json.hpp>
 
 #include "palletd/modbus/register_map.hpp"
-#include "palletd/service.hpp"
-#include "palletd/web.hpp"
+#include "palletd/status/snapshot.hpp"
+#include "palletd/web/web.hpp"
 
 namespace palletd::web {
 

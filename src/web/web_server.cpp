@@ -1,4 +1,4 @@
-#include "palletd/web.hpp"
+#include "palletd/web/web.hpp"
 
 #include <arpa/inet.h>
 #include <stdlib.h>
@@ -16,9 +16,9 @@
 #include <sstream>
 #include <thread>
 
-#include "palletd/detection_json.hpp"
-#include "palletd/frame_io.hpp"
-#include "palletd/overlay.hpp"
+#include "palletd/results/detection_json.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/results/overlay.hpp"
 #include "rolling_stats.hpp"
 #include "status_json.hpp"
 

@@ -2,7 +2,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "palletd/frame.hpp"
+#include "palletd/core/frame.hpp"
 
 using palletd::Frame;
 using palletd::Intrinsics;

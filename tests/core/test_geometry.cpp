@@ -1,6 +1,6 @@
 #include <catch2/catch.hpp>
 
-#include "palletd/geometry.hpp"
+#include "palletd/core/geometry.hpp"
 
 TEST_CASE("polygon area subtracts holes and ring orientation sets the sign") {
   palletd::PolygonWithHoles p;

@@ -9,9 +9,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "palletd/frame.hpp"
-#include "palletd/geometry.hpp"
-#include "palletd/layer.hpp"
+#include "palletd/core/frame.hpp"
+#include "palletd/core/geometry.hpp"
+#include "palletd/detection/layer.hpp"
 
 namespace palletd::testing {
 

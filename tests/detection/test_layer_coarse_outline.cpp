@@ -14,7 +14,7 @@
 
 #include "layer_stages.hpp"
 #include "outline_test_util.hpp"
-#include "palletd/layer.hpp"
+#include "palletd/detection/layer.hpp"
 
 using namespace palletd;
 using palletd::testing::describe;

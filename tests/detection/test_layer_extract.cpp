@@ -3,8 +3,8 @@
 
 #include <cmath>
 
-#include "palletd/layer.hpp"
-#include "palletd/layer_debug.hpp"
+#include "palletd/detection/layer.hpp"
+#include "palletd/detection/layer_debug.hpp"
 #include "synthetic_scene.hpp"
 
 using namespace palletd;

@@ -10,8 +10,8 @@
 
 #include "layer_stages.hpp"
 #include "outline_test_util.hpp"
-#include "palletd/detection.hpp"
-#include "palletd/layer.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/detection/layer.hpp"
 #include "synthetic_scene.hpp"
 
 using namespace palletd;

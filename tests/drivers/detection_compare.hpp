@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "palletd/detection.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 namespace palletd::test {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "palletd/frame.hpp"
+#include "palletd/core/frame.hpp"
 
 namespace palletd::test {
 

@@ -35,7 +35,7 @@
 #include <thread>
 #include <vector>
 
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 #define XN_NEW(type, arg) new (std::nothrow) type(arg)
 #define XN_DELETE(p) delete (p)

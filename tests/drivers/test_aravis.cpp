@@ -20,9 +20,9 @@
 
 #include "drivers_test_util.hpp"
 #include "netns.hpp"
-#include "palletd/camera.hpp"
-#include "palletd/config.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/config/config.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 using namespace palletd;
 using palletd::test::synthetic_frame;

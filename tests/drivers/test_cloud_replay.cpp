@@ -15,7 +15,7 @@
 
 #include "detection_compare.hpp"
 #include "drivers_test_util.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "replay/cloud_frame.hpp"
 #include "replay/replay_camera.hpp"
 

@@ -23,9 +23,9 @@
 #include "detection_compare.hpp"
 #include "drivers_test_util.hpp"
 #include "openni2/openni2_camera.hpp"
-#include "palletd/camera.hpp"
-#include "palletd/config.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/config/config.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 using namespace palletd;
 using palletd::test::TempDir;

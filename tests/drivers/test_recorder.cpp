@@ -5,10 +5,10 @@
 #include <fstream>
 
 #include "drivers_test_util.hpp"
-#include "palletd/camera.hpp"
-#include "palletd/config.hpp"
-#include "palletd/frame_io.hpp"
-#include "palletd/recorder.hpp"
+#include "palletd/drivers/camera.hpp"
+#include "palletd/config/config.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/frames/recorder.hpp"
 
 using namespace palletd;
 using palletd::test::synthetic_frame;

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "fuzz_util.hpp"
-#include "palletd/config.hpp"
+#include "palletd/config/config.hpp"
 
 using namespace palletd;
 using fuzz::fail;

@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "fuzz_util.hpp"
-#include "palletd/detection.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 using namespace palletd;
 using fuzz::fail;

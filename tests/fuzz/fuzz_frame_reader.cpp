@@ -10,7 +10,7 @@
 #include <string>
 
 #include "fuzz_util.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 using namespace palletd;
 using fuzz::fail;

@@ -5,7 +5,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "palletd/frame.hpp"
+#include "palletd/core/frame.hpp"
 
 namespace palletd::test {
 

@@ -6,7 +6,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "palletd/config.hpp"
+#include "palletd/config/config.hpp"
 #include "png_util.hpp"
 
 using namespace palletd;

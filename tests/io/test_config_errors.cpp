@@ -1,7 +1,7 @@
 // Configuration errors: each kind with file:line:column and the key path.
 #include <catch2/catch.hpp>
 
-#include "palletd/config.hpp"
+#include "palletd/config/config.hpp"
 #include "png_util.hpp"
 
 using namespace palletd;

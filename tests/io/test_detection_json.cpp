@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "palletd/detection_json.hpp"
+#include "palletd/results/detection_json.hpp"
 
 using namespace palletd;
 using Catch::Contains;

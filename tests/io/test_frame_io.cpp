@@ -4,7 +4,7 @@
 #include <cmath>
 #include <filesystem>
 
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "png_util.hpp"
 
 using namespace palletd;

@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "png_util.hpp"
 
 using namespace palletd;

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "palletd/geometry.hpp"
-#include "palletd/layer.hpp"
-#include "palletd/layout.hpp"
+#include "palletd/core/geometry.hpp"
+#include "palletd/detection/layer.hpp"
+#include "palletd/detection/layout.hpp"
 
 namespace palletd::layout_test {
 

@@ -7,8 +7,8 @@
 
 #include "layout_fixtures.hpp"
 #include "layout_internal.hpp"
-#include "palletd/layout.hpp"
-#include "seam_likelihood.hpp"
+#include "palletd/detection/layout.hpp"
+#include "evidence/seam_likelihood.hpp"
 
 using namespace palletd;
 using namespace palletd::layout_test;

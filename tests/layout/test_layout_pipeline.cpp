@@ -6,10 +6,10 @@
 #include <string>
 
 #include "layout_fixtures.hpp"
-#include "palletd/detection.hpp"
-#include "palletd/evaluation.hpp"
-#include "palletd/frame_io.hpp"
-#include "palletd/layout.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/results/evaluation.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/detection/layout.hpp"
 
 using namespace palletd;
 using namespace palletd::layout_test;

@@ -10,7 +10,7 @@
 #include <random>
 
 #include "layout_fixtures.hpp"
-#include "palletd/layout.hpp"
+#include "palletd/detection/layout.hpp"
 
 using namespace palletd;
 using namespace palletd::layout_test;

@@ -5,7 +5,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "palletd/layout.hpp"
+#include "palletd/detection/layout.hpp"
 
 #include "layout_fixtures.hpp"
 

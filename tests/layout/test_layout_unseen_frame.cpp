@@ -7,8 +7,8 @@
 
 #include <catch2/catch.hpp>
 
-#include "palletd/detection.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 using namespace palletd;
 

@@ -14,7 +14,7 @@
 
 #include "../../src/detection/layout/refine_joint.hpp"
 #include "layout_fixtures.hpp"
-#include "palletd/layout.hpp"
+#include "palletd/detection/layout.hpp"
 
 using namespace palletd;
 

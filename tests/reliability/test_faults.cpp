@@ -7,7 +7,7 @@
 #include <random>
 
 #include "daemon_harness.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "palletd/modbus/client.hpp"
 #include "palletd/modbus/register_map.hpp"
 

@@ -5,7 +5,7 @@
 #include <atomic>
 
 #include "daemon_harness.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "palletd/modbus/client.hpp"
 #include "palletd/modbus/register_map.hpp"
 #include "plc_load.hpp"

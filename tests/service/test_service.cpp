@@ -8,10 +8,10 @@
 
 #include <catch2/catch.hpp>
 
-#include "palletd/config.hpp"
-#include "palletd/frame_io.hpp"
+#include "palletd/config/config.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "palletd/modbus/register_map.hpp"
-#include "palletd/service.hpp"
+#include "palletd/service/service.hpp"
 #include "palletd/modbus/client.hpp"
 
 namespace fs = std::filesystem;

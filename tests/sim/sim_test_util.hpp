@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "palletd/sim.hpp"
+#include "palletd/sim/sim.hpp"
 
 namespace palletd::sim::test {
 

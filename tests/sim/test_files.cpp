@@ -6,8 +6,8 @@
 #include <iterator>
 #include <set>
 
-#include "palletd/frame_io.hpp"
-#include "palletd/sim.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/sim/sim.hpp"
 
 using namespace palletd;
 using namespace palletd::sim;

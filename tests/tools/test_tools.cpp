@@ -10,7 +10,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 
 using Catch::Contains;
 namespace fs = std::filesystem;

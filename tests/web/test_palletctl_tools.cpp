@@ -16,7 +16,7 @@
 
 #include <Eigen/Geometry>
 
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "palletd/modbus/server.hpp"
 
 using namespace palletd;

@@ -8,9 +8,9 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "palletd/detection_json.hpp"
-#include "palletd/frame_io.hpp"
-#include "palletd/web.hpp"
+#include "palletd/results/detection_json.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/web/web.hpp"
 #include "web_fixture.hpp"
 
 // After Eigen: httplib.h pulls in <resolv.h>, whose _res macro breaks Eigen's headers.

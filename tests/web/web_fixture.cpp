@@ -3,7 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "palletd/frame_io.hpp"
+#include "palletd/frames/frame_io.hpp"
 #include "synthetic_scene.hpp"
 
 namespace palletd::testing {

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "palletd/detection.hpp"
-#include "palletd/service.hpp"
-#include "palletd/web.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/service/service.hpp"
+#include "palletd/web/web.hpp"
 
 namespace palletd::testing {
 

@@ -10,7 +10,7 @@
 
 #include <pthread.h>
 
-#include "palletd/web.hpp"
+#include "palletd/web/web.hpp"
 #include "web_fixture.hpp"
 
 int main(int argc, char** argv) {

@@ -1,11 +1,11 @@
-// Debug pictures of the layer extraction (see palletd/layer_debug.hpp).
+// Debug pictures of the layer extraction (see palletd/detection/layer_debug.hpp).
 #include <algorithm>
 #include <cmath>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "palletd/layer_debug.hpp"
+#include "palletd/detection/layer_debug.hpp"
 
 namespace palletd {
 namespace {

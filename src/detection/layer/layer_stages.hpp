@@ -12,9 +12,9 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "palletd/frame.hpp"
-#include "palletd/geometry.hpp"
-#include "palletd/layer.hpp"
+#include "palletd/core/frame.hpp"
+#include "palletd/core/geometry.hpp"
+#include "palletd/detection/layer.hpp"
 
 namespace palletd::layer {
 

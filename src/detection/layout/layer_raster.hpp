@@ -11,8 +11,8 @@
 
 #include <Eigen/Core>
 
-#include "palletd/frame.hpp"
-#include "palletd/layer.hpp"
+#include "palletd/core/frame.hpp"
+#include "palletd/detection/layer.hpp"
 
 namespace palletd::layout_detail {
 

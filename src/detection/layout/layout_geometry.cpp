@@ -396,14 +396,25 @@ double rings_length_m(const PolygonWithHoles& polygon) {
   return total;
 }
 
-double tie_margin_m2(const LayoutParams& params, const std::vector<BoxFormat>& formats) {
-  double min_area = 0.0, min_short = 0.0;
+FormatExtremes format_extremes(const std::vector<BoxFormat>& formats) {
+  FormatExtremes e;
   for (std::size_t f = 0; f < formats.size(); ++f) {
     const double a = formats[f].long_m * formats[f].short_m;
-    min_area = f == 0 ? a : std::min(min_area, a);
-    min_short = f == 0 ? formats[f].short_m : std::min(min_short, formats[f].short_m);
+    e.min_area_m2 = f == 0 ? a : std::min(e.min_area_m2, a);
+    e.min_short_m = f == 0 ? formats[f].short_m : std::min(e.min_short_m, formats[f].short_m);
   }
-  return params.ambiguity_margin * min_area + std::max(0.0, params.outline_tolerance_m) * min_short;
+  return e;
+}
+
+double line_merge_tol_m(const LayoutParams& params, double min_short_m) {
+  return params.line_merge_tol_m > 0 ? params.line_merge_tol_m : std::clamp(0.06 * min_short_m, 0.006, 0.02);
+}
+
+double min_corner_edge_m(double min_short_m) { return std::max(0.02, 0.25 * min_short_m); }
+
+double tie_margin_m2(const LayoutParams& params, const std::vector<BoxFormat>& formats) {
+  const FormatExtremes e = format_extremes(formats);
+  return params.ambiguity_margin * e.min_area_m2 + std::max(0.0, params.outline_tolerance_m) * e.min_short_m;
 }
 
 PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m) {

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "palletd/layout.hpp"
+#include "palletd/detection/layout.hpp"
 
 namespace palletd::layout_detail {
 
@@ -24,6 +24,21 @@ double overlap(const Rect& a, const Rect& b);
 Rect bounds_of(const PolygonWithHoles& polygon);
 /// Length of the outer ring and the holes [m].
 double rings_length_m(const PolygonWithHoles& polygon);
+
+/// The smallest box area and the shortest box side of a recipe's formats.
+struct FormatExtremes {
+  double min_area_m2 = 0.0;
+  double min_short_m = 0.0;
+};
+FormatExtremes format_extremes(const std::vector<BoxFormat>& formats);
+
+/// Candidate lines closer than this merge, and a seam may lie this far from a box side [m]:
+/// LayoutParams::line_merge_tol_m, or (0 = auto) 6 % of the shortest box side within 6-20 mm.
+double line_merge_tol_m(const LayoutParams& params, double min_short_m);
+
+/// Outline edges shorter than this carry no orthogonal corner [m]: a quarter of the shortest box
+/// side, at least 20 mm.
+double min_corner_edge_m(double min_short_m);
 
 /// Outline scores closer than this tie [m^2]: the ambiguity margin's share of the smallest box,
 /// plus a strip as wide as the outline's tolerance along the shortest box side (what an outline

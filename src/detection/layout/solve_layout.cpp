@@ -4,7 +4,7 @@
 #include <algorithm>
 
 #include "layer_raster.hpp"
-#include "palletd/layout.hpp"
+#include "palletd/detection/layout.hpp"
 
 namespace palletd {
 

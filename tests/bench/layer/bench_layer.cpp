@@ -18,10 +18,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "palletd/layer.hpp"
-#include "palletd/layer_debug.hpp"
+#include "palletd/detection/layer.hpp"
+#include "palletd/detection/layer_debug.hpp"
 #include "layer_stages.hpp"
-#include "palletd/sim.hpp"
+#include "palletd/sim/sim.hpp"
 #include "synthetic_scene.hpp"
 
 using namespace palletd;

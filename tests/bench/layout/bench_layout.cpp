@@ -17,7 +17,7 @@
 #include <opencv2/core.hpp>
 
 #include "layout_fixtures.hpp"
-#include "palletd/layout.hpp"
+#include "palletd/detection/layout.hpp"
 
 using namespace palletd;
 using namespace palletd::layout_test;

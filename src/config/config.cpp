@@ -1,0 +1,246 @@
+// The configuration file: YAML in, plain structs out, every error with file:line:column and key path.
+#include "palletd/config/config.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+#include "config_yaml.hpp"
+#include "palletd/frames/files.hpp"
+
+namespace palletd {
+
+namespace {
+
+std::string error_text(const std::string& file, int line, int column, const std::string& key_path,
+                       const std::string& message) {
+  std::string text = file;
+  if (line > 0) text += ":" + std::to_string(line) + ":" + std::to_string(column);
+  text += ": ";
+  if (!key_path.empty()) text += key_path + ": ";
+  return text + message;
+}
+
+}  // namespace
+
+ConfigError::ConfigError(std::string file, int line, int column, std::string key_path, const std::string& message)
+    : std::runtime_error(error_text(file, line, column, key_path, message)),
+      file_(std::move(file)),
+      line_(line),
+      column_(column),
+      key_path_(std::move(key_path)) {}
+
+namespace config_detail {
+
+void fail_at(const Context& ctx, const YAML::Mark& mark, const std::string& path, const std::string& message) {
+  if (mark.is_null()) throw ConfigError(ctx.file, 0, 0, path, message);
+  throw ConfigError(ctx.file, mark.line + 1, mark.column + 1, path, message);
+}
+
+void fail(const Context& ctx, const YAML::Node& at, const std::string& path, const std::string& message) {
+  fail_at(ctx, at.Mark(), path, message);
+}
+
+std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+
+namespace {
+
+bool quoted(const YAML::Node& node) { return node.Tag() == "!"; }
+
+}  // namespace
+
+std::string describe(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Null:
+    case YAML::NodeType::Undefined:
+      return "nothing";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a mapping";
+    case YAML::NodeType::Scalar:
+      return (quoted(node) ? "the string '" : "'") + node.Scalar() + "'";
+  }
+  return "something else";
+}
+
+double read_double(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  double v = 0.0;
+  if (!node.IsScalar() || quoted(node) || !YAML::convert<double>::decode(node, v))
+    fail(ctx, node, path, "expected a number, got " + describe(node));
+  if (!std::isfinite(v)) fail(ctx, node, path, "must be a finite number");
+  return v;
+}
+
+long long read_integer(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  long long v = 0;
+  if (!node.IsScalar() || quoted(node) || !YAML::convert<long long>::decode(node, v))
+    fail(ctx, node, path, "expected an integer, got " + describe(node));
+  return v;
+}
+
+bool read_bool(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  bool v = false;
+  if (!node.IsScalar() || quoted(node) || !YAML::convert<bool>::decode(node, v))
+    fail(ctx, node, path, "expected true or false, got " + describe(node));
+  return v;
+}
+
+std::string read_string(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  if (!node.IsScalar()) fail(ctx, node, path, "expected a string, got " + describe(node));
+  return node.Scalar();
+}
+
+std::vector<std::string> read_strings(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  std::vector<std::string> out;
+  if (node.IsNull()) return out;
+  if (!node.IsSequence()) fail(ctx, node, path, "expected a list of strings, got " + describe(node));
+  for (std::size_t i = 0; i < node.size(); ++i)
+    out.push_back(read_string(ctx, node[i], path + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
+std::string resolve_path(const Context& ctx, const std::string& path) {
+  if (path.empty() || ctx.base_directory.empty()) return path;
+  const std::filesystem::path p(path);
+  if (p.is_absolute()) return path;
+  return (std::filesystem::path(ctx.base_directory) / p).lexically_normal().string();
+}
+
+void check_keys(const Context& ctx, const YAML::Node& map, const std::string& path,
+                const std::vector<std::string>& allowed) {
+  std::set<std::string> seen;
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const YAML::Node key = it->first;
+    if (!key.IsScalar()) fail(ctx, key, path, "keys must be plain words, got " + describe(key));
+    const std::string& name = key.Scalar();
+    if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
+      std::string known;
+      for (const auto& a : allowed) known += (known.empty() ? "" : ", ") + a;
+      fail(ctx, key, join(path, name), "unknown key (known here: " + known + ")");
+    }
+    if (!seen.insert(name).second) fail(ctx, key, join(path, name), "duplicate key");
+  }
+}
+
+}  // namespace config_detail
+
+using namespace config_detail;
+
+namespace {
+
+const std::vector<std::string>& top_level_keys() {
+  static const std::vector<std::string> keys = {"camera",    "camera_to_base", "formats",
+                                                "recipes",   "detection",      "modbus",
+                                                "pipeline",  "logging",        "recording", "web"};
+  return keys;
+}
+
+YAML::Node load_yaml(const std::string& name, const std::string& text) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    fail_at(Context{name, ""}, e.mark, "", "YAML syntax error: " + e.msg);
+  }
+}
+
+void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
+  if (root.IsNull()) return;
+  if (!root.IsMap()) fail(ctx, root, "", "the top level must be a mapping of sections, got " + describe(root));
+  check_keys(ctx, root, "", top_level_keys());
+  if (const YAML::Node n = root["camera"]) read_section(ctx, n, "camera", camera_table(), config.camera);
+  if (const YAML::Node n = root["camera_to_base"]) config.T_base_camera = read_camera_to_base(ctx, n, "camera_to_base");
+  if (const YAML::Node n = root["formats"]) config.formats = read_formats(ctx, n, "formats");
+  if (const YAML::Node n = root["recipes"]) config.recipes = read_recipes(ctx, n, "recipes", config.formats);
+  if (const YAML::Node n = root["detection"]) read_section(ctx, n, "detection", detection_table(), config.detection);
+  if (const YAML::Node n = root["modbus"]) read_section(ctx, n, "modbus", modbus_table(), config.modbus);
+  if (const YAML::Node n = root["pipeline"]) read_section(ctx, n, "pipeline", pipeline_table(), config.pipeline);
+  if (const YAML::Node n = root["logging"]) read_section(ctx, n, "logging", logging_table(), config.logging);
+  if (const YAML::Node n = root["recording"]) read_section(ctx, n, "recording", recording_table(), config.recording);
+  if (const YAML::Node n = root["web"]) read_section(ctx, n, "web", web_table(), config.web);
+
+  // Checks across keys, reported at the later key.
+  if (config.camera.reconnect_max_s < config.camera.reconnect_min_s) {
+    const YAML::Node camera = root["camera"];
+    const YAML::Node at = camera["reconnect_max_s"] ? camera["reconnect_max_s"] : camera["reconnect_min_s"];
+    fail(ctx, at, "camera.reconnect_max_s", "must not be below camera.reconnect_min_s");
+  }
+  if (!config.recipes.empty()) {
+    const int wanted = config.pipeline.default_recipe;
+    const bool known = std::any_of(config.recipes.begin(), config.recipes.end(),
+                                   [&](const Recipe& r) { return r.number == wanted; });
+    if (!known) {
+      const YAML::Node pipeline = root["pipeline"];
+      const YAML::Node at = pipeline && pipeline.IsMap() && pipeline["default_recipe"] ? pipeline["default_recipe"]
+                                                                                       : root["recipes"];
+      fail(ctx, at, "pipeline.default_recipe",
+           "recipe " + std::to_string(wanted) + " is not defined under recipes");
+    }
+  }
+}
+
+}  // namespace
+
+Config parse_config(const std::string& yaml_text, const std::string& name, const std::string& base_directory) {
+  const Context ctx{name, base_directory};
+  const YAML::Node root = load_yaml(name, yaml_text);
+  Config config;
+  config.source_path = name;
+  try {
+    parse_into(ctx, root, config);
+  } catch (const YAML::Exception& e) {  // not expected; still reported as a config error
+    fail_at(ctx, e.mark, "", e.msg);
+  }
+  return config;
+}
+
+Config load_config(const std::string& path) {
+  auto text = io_detail::read_text_file(path);
+  if (!text) throw ConfigError(path, 0, 0, "", "cannot read the configuration: " + text.error());
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
+  const std::string base = ec ? std::string() : absolute.parent_path().lexically_normal().string();
+  return parse_config(*text, path, base);
+}
+
+std::vector<std::string> config_differences(const Config& a, const Config& b) {
+  std::vector<std::string> diffs;
+  compare_section(a.camera, b.camera, "camera", camera_table(), diffs);
+  if (a.T_base_camera.has_value() != b.T_base_camera.has_value() ||
+      (a.T_base_camera && a.T_base_camera->matrix() != b.T_base_camera->matrix()))
+    diffs.emplace_back("camera_to_base");
+  const auto same_format = [](const BoxFormat& x, const BoxFormat& y) {
+    return x.name == y.name && x.long_m == y.long_m && x.short_m == y.short_m;
+  };
+  if (!std::equal(a.formats.begin(), a.formats.end(), b.formats.begin(), b.formats.end(), same_format))
+    diffs.emplace_back("formats");
+  const auto same_recipe = [](const Recipe& x, const Recipe& y) {
+    return x.number == y.number && x.name == y.name && x.formats == y.formats;
+  };
+  if (!std::equal(a.recipes.begin(), a.recipes.end(), b.recipes.begin(), b.recipes.end(), same_recipe))
+    diffs.emplace_back("recipes");
+  compare_section(a.detection, b.detection, "detection", detection_table(), diffs);
+  compare_section(a.modbus, b.modbus, "modbus", modbus_table(), diffs);
+  compare_section(a.pipeline, b.pipeline, "pipeline", pipeline_table(), diffs);
+  compare_section(a.logging, b.logging, "logging", logging_table(), diffs);
+  compare_section(a.recording, b.recording, "recording", recording_table(), diffs);
+  compare_section(a.web, b.web, "web", web_table(), diffs);
+  return diffs;
+}
+
+std::vector<std::string> config_key_paths() {
+  std::vector<std::string> keys;
+  list_section("camera", camera_table(), keys);
+  keys.emplace_back("camera_to_base");
+  keys.emplace_back("formats");
+  keys.emplace_back("recipes");
+  list_section("detection", detection_table(), keys);
+  list_section("modbus", modbus_table(), keys);
+  list_section("pipeline", pipeline_table(), keys);
+  list_section("logging", logging_table(), keys);
+  list_section("recording", recording_table(), keys);
+  list_section("web", web_table(), keys);
+  return keys;
+}
+
+}  // namespace palletd

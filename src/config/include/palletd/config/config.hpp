@@ -1,0 +1,115 @@
+// palletd io: the configuration as plain structs with defaults, parsed at the edge from one
+// YAML file (config/palletd.yaml documents every key with its default and unit).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "palletd/detection/detection.hpp"
+#include "palletd/drivers/camera_config.hpp"
+#include "palletd/core/frame.hpp"
+#include "palletd/core/geometry.hpp"
+
+namespace palletd {
+
+/// A recipe: a numbered list of box formats the PLC selects.
+struct Recipe {
+  int number = 0;
+  std::string name;
+  std::vector<int> formats;  ///< indices into Config::formats
+};
+
+struct ModbusConfig {
+  std::string bind_address = "127.0.0.1";  ///< never all interfaces by surprise
+  int port = 502;
+  int unit_id = 1;                  ///< 0 = answer any unit id
+  bool low_word_first = false;      ///< 32-bit values: high word first by default
+  std::vector<std::string> allow;   ///< addresses / CIDR allowed to connect; empty = any
+  std::vector<std::string> read_only;  ///< addresses / CIDR whose writes are refused
+  int max_connections = 16;
+  double idle_timeout_s = 60.0;     ///< close connections idle this long [s]; 0 = never
+  double plc_heartbeat_timeout_s = 0.0;  ///< watch the PLC heartbeat register; 0 = off
+};
+
+struct PipelineConfig {
+  double detection_timeout_ms = 2000.0;  ///< a detection longer than this is reported as failed
+  int default_recipe = 1;
+};
+
+struct LoggingConfig {
+  std::string level = "info";  ///< trace | debug | info | warn | error
+};
+
+struct RecordingConfig {
+  bool enabled = false;
+  std::string directory = "/var/lib/palletd/recordings";
+  std::uint64_t max_bytes = 2ull << 30;  ///< ring size on disk [bytes]
+  bool every_trigger = false;   ///< record each triggered frame (else only on SaveSnapshot)
+  bool overlays = true;
+};
+
+/// The read-only status page served by the daemon (docs/commissioning.md).
+struct WebConfig {
+  bool enabled = false;
+  std::string bind_address = "127.0.0.1";  ///< loopback by default
+  int port = 8080;
+  bool allow_snapshot_post = false;  ///< POST /api/snapshot stores the next frame (as SaveSnapshot)
+  int refresh_ms = 1000;             ///< page refresh period [ms]
+  std::vector<std::string> allowed_hosts;  ///< extra Host names (numeric addresses, localhost always)
+};
+
+struct Config {
+  std::string source_path;  ///< the file this came from ("" = defaults)
+  CameraConfig camera;
+  std::optional<Eigen::Isometry3d> T_base_camera;  ///< camera -> robot base (`camera_to_base`)
+  std::vector<BoxFormat> formats;
+  std::vector<Recipe> recipes;
+  DetectionParams detection;
+  ModbusConfig modbus;
+  PipelineConfig pipeline;
+  LoggingConfig logging;
+  RecordingConfig recording;
+  WebConfig web;
+};
+
+/// A configuration error with its place: "FILE:LINE:COLUMN: KEY.PATH: message".
+class ConfigError : public std::runtime_error {
+ public:
+  ConfigError(std::string file, int line, int column, std::string key_path, const std::string& message);
+  [[nodiscard]] const std::string& file() const { return file_; }
+  [[nodiscard]] int line() const { return line_; }      ///< 1-based, 0 when unknown
+  [[nodiscard]] int column() const { return column_; }  ///< 1-based, 0 when unknown
+  [[nodiscard]] const std::string& key_path() const { return key_path_; }
+
+ private:
+  std::string file_;
+  int line_;
+  int column_;
+  std::string key_path_;
+};
+
+/// Loads and validates a configuration file. Throws ConfigError (start-up only).
+/// Relative paths in the file (camera.replay.directory, recording.directory) are resolved against
+/// the file's folder.
+Config load_config(const std::string& path);
+/// The same from YAML text; `name` is used in error messages. Relative paths are resolved against
+/// `base_directory`, or left as written when it is empty.
+Config parse_config(const std::string& yaml_text, const std::string& name,
+                    const std::string& base_directory = "");
+
+/// Key paths ("modbus.port", "formats", ...) whose values differ between two configurations
+/// (source_path is not compared). Empty when they are equal.
+std::vector<std::string> config_differences(const Config& a, const Config& b);
+/// Every key path the configuration file accepts, in file order ("camera.driver", ...).
+/// `formats`, `recipes`, `camera_to_base` and `camera.intrinsics` are listed as one key each.
+std::vector<std::string> config_key_paths();
+
+/// The exit code of `--check-config` on a bad file (sysexits EX_CONFIG).
+inline constexpr int kExitConfigError = 78;
+
+}  // namespace palletd

@@ -1,0 +1,87 @@
+// palletd detection: frame in, layout out. A pure function: no threads, files or logging inside;
+// everything it decides is in its result.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "palletd/core/frame.hpp"
+#include "palletd/core/geometry.hpp"
+#include "palletd/detection/layer.hpp"
+#include "palletd/detection/status.hpp"
+#include "palletd/detection/layout.hpp"
+
+namespace palletd {
+
+/// Order in which boxes are reported to the robot (pick index 0 first).
+enum class PickOrder {
+  far_corner_first,  ///< from the corner furthest from the robot base (or camera) inwards
+  row_major,         ///< by base-frame x, then y
+  nearest_first,     ///< nearest to the robot base (or camera) first
+};
+
+struct DetectionParams {
+  PlaneParams plane;
+  LayerParams layer;
+  ContourParams contour;
+  LayoutParams layout;
+  PickOrder pick_order = PickOrder::far_corner_first;
+};
+
+/// One detected box, camera frame [m], conventions of shared/spec/detections.md.
+struct DetectedBox {
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();     ///< centroid of the top face
+  Eigen::Vector3d long_axis = Eigen::Vector3d::UnitX(); ///< unit, along the long side
+  Eigen::Vector3d normal = -Eigen::Vector3d::UnitZ();   ///< unit, toward the camera
+  double long_m = 0.0, short_m = 0.0;                   ///< size of the top face [m]
+  int format = 0;        ///< index into the recipe's formats
+  double score = 0.0;    ///< 0..1
+  int pick_index = 0;
+  /// Completed across an outline edge where the depth ends: part of its top was not seen, so its
+  /// far side is placed by the format, not measured (LayoutParams::unseen_min_fraction).
+  bool partly_unseen = false;
+  Box2d in_layer;        ///< the same box in the layer frame
+  std::optional<Eigen::Vector3d> base_position;  ///< [m] when T_base_camera is known
+  std::optional<double> base_yaw_deg;            ///< [deg] (-180, 180]
+};
+
+struct Detection {
+  DetectionStatus status = DetectionStatus::bad_frame;
+  std::string message;
+  std::map<std::string, double> timing_ms;  ///< "total" plus per stage
+  Plane plane_camera;
+  double layer_area_m2 = 0.0;
+  double coverage = 0.0;
+  bool ambiguous = false;
+  bool budget_exhausted = false;
+  bool clipped_by_image_border = false;
+  /// A large part of the layer's outline runs along pixels without depth (beyond the sensor's
+  /// range, a dark or shiny surface): the outline there is where the depth ends; `message`
+  /// says so even when status is ok.
+  bool outline_unobserved = false;
+  std::vector<DetectedBox> boxes;
+  LayerResult layer;  ///< the first half's result, for overlays and diagnostics
+};
+
+/// Buffers detect() fills per frame, owned by the caller so that a loop over frames reuses them
+/// (no allocation for them once they have the frame's size: the organized cloud alone is 3.7 MB
+/// at 640x480). One workspace per thread; its contents after a call are scratch.
+struct DetectionWorkspace {
+  RayTable rays;         ///< viewing rays of the last frame's intrinsics; rebuilt when they change
+  OrganizedCloud cloud;  ///< organized cloud of the last frame [m]
+};
+
+/// Runs the whole pipeline on one frame with the given box formats, reusing `workspace`.
+Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats,
+                 const DetectionParams& params, DetectionWorkspace& workspace);
+
+/// The same with a temporary workspace (the cloud is allocated for this call).
+/// `rays` may be empty; a matching table is then built (pass one in to reuse it frame after frame).
+Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats,
+                 const DetectionParams& params, RayTable* rays = nullptr);
+
+}  // namespace palletd

@@ -1,0 +1,257 @@
+// palletd detection, second half (paper Section IV): box layout search, seam evidence,
+// refinement. Values in, values out.
+//
+// Entry points, in pipeline order:
+//   SeamEvidence seams = build_seam_evidence(frame, cloud, layer);          // evidence inside the layer
+//   LayoutResult found = find_layout(layer.polygons, formats, params, &seams);  // search
+//   LayoutResult final = refine_layout(found, layer, &seams, params);        // millimetre fit
+// or all three at once: solve_layout(frame, cloud, layer, formats, params).
+//
+// Product search (SearchMode::product, the default). Per component and per layout orientation
+// (taken mod 90 deg from the outline's orthogonal corners), the component is turned so that the
+// layout is axis-aligned. Candidate box-edge lines are the outline's axis-aligned edges closed
+// under every box side towards the side the layer lies on (+sides from an edge with the layer on
+// its + side, -sides from the other; merged within a tolerance); the lines cut the component into grid
+// cells whose exact area inside the outline is clipped once, so Area(B ∩ C) of any box is an
+// O(1) summed-area lookup. Boxes are placed by bottom-left canonical filling: the lowest-leftmost
+// undecided cell is either the bottom-left cell of a new box or left uncovered; every layout is
+// generated exactly once (a tree, so no duplicate hypotheses), and the search is best-first on
+// the admissible bound score + undecided area.
+//
+// Seam evidence never vetoes a layout the outline supports: find_layout searches on the outline
+// (paper score) alone, collecting the best layout and the materially different ones within the
+// ambiguity margin; seam agreement (seam length along shared box edges minus seam length across
+// box interiors, integrated along whole edges) then chooses among those near-equal hypotheses.
+// `ambiguous` is set only when the seams cannot separate them. The seam raster is noise-aware
+// (depth threshold from the plane noise, dark lines in the intensity image against its noise);
+// intensity steps (labels, print, tape edges) are no seams, and scattered dropouts are suppressed
+// by the line filter along the layout axes.
+//
+// Paper mode (SearchMode::paper): Algorithms 1-3 as published (breadth-first queue, every
+// orthogonal corner, four stacking ways), capped by paper_max_hypotheses and the time budget.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "palletd/core/frame.hpp"
+#include "palletd/core/geometry.hpp"
+#include "palletd/detection/layer.hpp"
+#include "palletd/detection/status.hpp"
+
+namespace palletd {
+
+enum class SearchMode { product, paper };
+
+/// How the product search evaluates Area(box ∩ layer) for its placement table. grid_sat is the
+/// default, chosen by measurement (tests/bench/layout): exact and the fastest; raster is
+/// approximate (it can break exact ties, so ambiguity is under-reported); clip is exact and slower.
+enum class AreaMethod {
+  grid_sat,  ///< exact: cells between candidate lines clipped once, summed-area table over cells
+  raster,    ///< layer rasterised in the layout frame (area_raster_cell_m), summed-area table
+  clip,      ///< exact clipping of the polygon with holes against each rectangle, every query
+};
+
+struct LayoutParams {
+  SearchMode search = SearchMode::product;
+  double a_min_fraction = 0.9;   ///< a box is on the layer when Area(B ∩ C) > a_min_fraction * Area(B)
+  double a_max_fraction = 0.1;   ///< and overlaps the hypothesis by less than a_max_fraction * Area(B)
+  /// Product search: how far the true outline may lie outside the measured one [pixel pitches on
+  /// the layer]. An outline traced through pixels places an edge between a layer pixel and its
+  /// neighbour off the layer, uncertain by up to half a pitch where no mixed depth says more; at a
+  /// coarse pitch the short steps of a staggered edge (a brick layer's 100 mm offsets are 5 pixels
+  /// at 20 mm) come out washed into slopes that cut more than a tenth off the boxes there. For the
+  /// a_min_fraction test a box's part outside the outline but within this distance of it counts
+  /// as on the layer; the score stays Area(B ∩ C). It also widens the tie margin (see
+  /// ambiguity_margin) and lets candidate box sides reach that far beyond the outline.
+  /// solve_layout converts it to outline_tolerance_m with the layer's pixel pitch. 0 = the
+  /// outline is exact (the paper). Larger values blur the recipe's formats: a box 20 mm smaller
+  /// than its format passes more often.
+  double outline_tolerance_pitches = 0.5;
+  /// The same in metres, used by find_layout; solve_layout sets it from
+  /// outline_tolerance_pitches when it is 0 [m].
+  double outline_tolerance_m = 0.0;
+  /// Product search budget per call: node expansions (best-first queue pops), shared among the
+  /// components and layout orientations in a fixed way. This is the primary budget and it is
+  /// deterministic: the same frame gives the same layout whatever the machine load. Past it the
+  /// best layout so far is returned with budget_exhausted. A 40-box layer needs a few thousand.
+  std::size_t search_expansions = 20000;
+  /// Wall-clock safety cap per call [ms], shared among the components; past it the best so far is
+  /// returned with budget_exhausted (paper mode: the budget, with paper_max_hypotheses). In the
+  /// product search it only ends searches the expansion budget would let run too long.
+  double time_budget_ms = 200.0;
+  /// Two materially different layouts whose scores differ by less than this share of the
+  /// smallest box area, plus a strip outline_tolerance_m wide along the shortest box side, are
+  /// near-equal: the seams choose between them, or they are tied (-> ambiguous).
+  double ambiguity_margin = 0.02;
+  double corner_angle_tol_deg = 10.0;  ///< an outline corner is orthogonal within this [deg]
+  double line_merge_tol_m = 0.0;       ///< candidate lines closer than this merge [m]; 0 = auto
+  /// Seam penalty weights of the internal seam-penalised search (Area(B ∩ C) - seam_weight *
+  /// (interior seam mass + missing_seam_weight * unsupported shared edge * cell)). find_layout
+  /// no longer penalises the search with seams (see the header comment); kept so that
+  /// existing configuration files stay valid.
+  double seam_weight = 4.0;
+  double missing_seam_weight = 1.0;
+  double seam_margin_m = 0.012;        ///< box interior = box shrunk by this before seam lookup [m]
+  std::size_t max_nodes = 400000;      ///< product search node cap
+  std::size_t paper_max_hypotheses = 200000;  ///< paper mode cap on queued hypotheses
+  AreaMethod area_method = AreaMethod::grid_sat;
+  double area_raster_cell_m = 0.003;   ///< cell of AreaMethod::raster [m]
+  /// Below this covered share of a component, its boxes match no recipe format (no_layout).
+  double min_coverage = 0.8;
+  bool refine = true;                  ///< solve_layout: run refine_layout
+  double refine_size_tolerance_m = 0.010;  ///< refined sizes stay within nominal +/- this [m]
+  /// Prior spread of a box's own turn against the rest of its layer, and of a separate
+  /// component's against the layer's orientation [deg]; 0 turns all boxes of a layer together.
+  double refine_yaw_sigma_deg = 0.5;
+  /// Boxes the outline cuts where the depth ends (beyond the range, too dark; see
+  /// LayerSurroundings): a box of the recipe is placed across such an edge when at least this
+  /// share of it is on the layer, two of its sides (one per axis) lie on seen edges of the
+  /// outline or on neighbours, and its part off the layer is unseen, not seen lower. 0 = never.
+  double unseen_min_fraction = 0.4;
+  /// A piece of a component that no box covers, wider than the gaps between boxes and larger
+  /// than this share of the smallest box, flags the layout ambiguous: the outline is not
+  /// explained there (a wrong tiling, a box of another format). 0 = never.
+  double uncovered_flag_fraction = 0.4;
+};
+
+/// Seam evidence: a raster in the layer frame of how much each spot looks like a gap between
+/// boxes (0 = flat box top, 1 = seam: depth below the plane, no measurement, a dark line in the
+/// intensity image).
+struct SeamEvidence {
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< layer-frame corner of cell (0, 0) [m]
+  double cell_m = 0.003;                               ///< cell size [m]
+  int width = 0;                                       ///< cells along layer x
+  int height = 0;                                      ///< cells along layer y
+  std::vector<float> seam;                             ///< row-major (row = y), 0..1
+  double strength = 0.0;  ///< share of layer cells that look like seams (> 0.5); 0 = no evidence
+  double depth_threshold_m = 0.0;  ///< depth below the plane where seams start (noise-aware) [m]
+
+  [[nodiscard]] bool empty() const { return width <= 0 || height <= 0 || seam.empty(); }
+  [[nodiscard]] float at(int ix, int iy) const {
+    return seam[static_cast<std::size_t>(iy) * static_cast<std::size_t>(width) +
+                static_cast<std::size_t>(ix)];
+  }
+};
+
+struct SeamParams {
+  double cell_m = 0.0;            ///< raster cell [m]; 0 = the pixel pitch on the layer
+  /// Deeper than the plane by more than max(depth_step_m, depth_noise_k * sigma) starts to look
+  /// like a seam (fully at twice that); sigma = layer.diagnostics.plane_sigma_m when set, else
+  /// the MAD of the layer pixels' plane residuals [m].
+  double depth_step_m = 0.004;
+  double depth_noise_k = 3.0;
+  double intensity_weight = 0.8;  ///< weight of dark lines in the intensity image (0 = ignore intensity)
+  /// A dark line (darker than the pixels on both sides of it) starts to look like a seam when it
+  /// is intensity_noise_k times the intensity noise on the layer deep, fully at twice that.
+  double intensity_noise_k = 3.0;
+};
+
+/// Builds the seam raster from the frame (depth, optional intensity), its organized cloud and
+/// the layer found by the first half. Empty when the layer status is not ok.
+SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud,
+                                 const LayerResult& layer, const SeamParams& params = {});
+
+/// What the camera saw on and around the layer, resampled into the layer frame: where the layer
+/// may go on unseen (no depth, or something above it in the view) and where the view shows the
+/// surface lower (the layer ends there). Built with the pixels' viewing rays, so pixels without
+/// depth land where they belong on the plane.
+struct LayerSurroundings {
+  enum Label : std::uint8_t { unseen = 0, level = 1, below = 2 };
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< layer-frame corner of cell (0, 0) [m]
+  double cell_m = 0.01;                                ///< cell size [m]
+  int width = 0;                                       ///< cells along layer x
+  int height = 0;                                      ///< cells along layer y
+  std::vector<std::uint8_t> label;                     ///< row-major (row = y), a Label per cell
+
+  [[nodiscard]] bool empty() const { return width <= 0 || height <= 0 || label.empty(); }
+  [[nodiscard]] std::uint8_t at(int ix, int iy) const {
+    return label[static_cast<std::size_t>(iy) * static_cast<std::size_t>(width) + static_cast<std::size_t>(ix)];
+  }
+  /// The label at a layer-frame point (unseen outside the raster).
+  [[nodiscard]] std::uint8_t at_point(const Eigen::Vector2d& p_m) const;
+  /// Whether anything is seen (level or below) along the ray from p_m in direction dir (unit,
+  /// layer frame) within reach_m.
+  [[nodiscard]] bool seen_within(const Eigen::Vector2d& p_m, const Eigen::Vector2d& dir, double reach_m) const;
+};
+
+/// The layer's surroundings within reach_m of its outline (cells outside the image: unseen).
+/// A pixel is at the layer's level within max(15 mm, the layer's passthrough band) of the plane,
+/// below it further down, unseen without depth or further up. Empty when the layer is not ok.
+LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCloud& cloud,
+                                           const LayerResult& layer, double reach_m);
+
+/// A pixel on the layer's rim that straddles the edge: a ToF pixel whose footprint lies partly on
+/// the top and partly on the surface beyond returns a depth between the two, in proportion to
+/// the light from each (mixed pixel). Where its viewing ray meets the plane, and the share of its
+/// footprint on the top estimated from that depth.
+struct RimPixel {
+  Eigen::Vector2f at_m = Eigen::Vector2f::Zero();  ///< layer frame [m]
+  float top_share = 0.f;                           ///< 0..1
+};
+
+/// The layer's mixed rim pixels: below the level band (build_layer_surroundings) next to a pixel
+/// of the layer (LayerResult::point_pixels, 4-neighbourhood), with the pixel straight on beyond
+/// them lower still, at least min_drop_m below the plane. top_share = 1 - (its depth below the plane) / (the
+/// depth beyond), averaged over the directions that qualify. Cameras that blank mixed pixels
+/// (flying-pixel filters) give none. Empty when the layer is not ok.
+std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                                      double min_drop_m = 0.05);
+
+/// Result of the layout search for all components of a layer.
+struct LayoutResult {
+  DetectionStatus status = DetectionStatus::no_layout;
+  std::string reason;                ///< a sentence when status != ok
+  std::vector<Box2d> boxes;          ///< layer frame
+  std::vector<double> box_scores;    ///< 0..1 per box
+  std::vector<int> box_component;    ///< index of the component each box lies on
+  /// Per box: completed across an outline edge where the depth ends (part of it unseen).
+  std::vector<bool> box_partly_unseen;
+  bool ambiguous = false;            ///< another layout scores (nearly) the same
+  bool budget_exhausted = false;     ///< time budget or node cap reached: best so far returned
+  double coverage = 0.0;             ///< covered share of the layer area
+  double score = 0.0;                ///< sum over components of the search score [m^2]
+  double runner_up_gap = -1.0;       ///< score gap to the best different layout [m^2]; -1 = none
+  std::vector<Box2d> runner_up;      ///< that layout (diagnostics), empty if none
+  /// Boxes completed across outline edges where the depth ends (LayoutParams::unseen_min_fraction).
+  std::size_t completed_unseen = 0;
+  std::size_t hypotheses_visited = 0;
+  std::size_t search_expansions = 0;  ///< product search: node expansions used (the budget's unit)
+  double search_ms = 0.0;
+};
+
+/// Why a recipe's formats cannot be searched, or "" when they can: none given, a zero, negative
+/// or invalid size, the short side listed first.
+std::string box_formats_problem(const std::vector<BoxFormat>& formats);
+
+/// Finds the box layout of each component. `seams` may be null (outline only). With
+/// `surroundings`, boxes the outline cuts where the depth ends are completed
+/// (LayoutParams::unseen_min_fraction).
+LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
+                         const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                         const SeamEvidence* seams, const LayerSurroundings* surroundings = nullptr);
+
+/// Fits the found boxes to the measured outline (layer points) and to seam lines so that
+/// positions reach millimetres; sizes stay at the nominal format within
+/// refine_size_tolerance_m. Recomputes per-box scores. `seams` may be null. With
+/// `surroundings`, outline stretches where the depth ends (nothing seen beyond within 50 mm)
+/// are not taken for box edges. With `rim`, an outline side that does not face the camera is
+/// placed within the footprint of the mixed pixels beyond it (their top share) instead of at
+/// the middle of that footprint.
+LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
+                           const std::vector<BoxFormat>& formats, const SeamEvidence* seams,
+                           const LayoutParams& params, const LayerSurroundings* surroundings = nullptr,
+                           const std::vector<RimPixel>* rim = nullptr);
+
+/// build_seam_evidence + find_layout + refine_layout.
+LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                          const std::vector<BoxFormat>& formats, const LayoutParams& params);
+
+/// Area of the intersection of a polygon with holes and an axis-aligned rectangle [m^2] (exact).
+double clipped_area(const PolygonWithHoles& polygon, double x0, double y0, double x1, double y1);
+
+}  // namespace palletd

@@ -1,0 +1,229 @@
+// Robust edge-line fits and the joint least-squares fit of a layout's boxes (see refine_joint.hpp).
+#include "refinement/refine_joint.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Dense>
+
+namespace palletd::layout_detail {
+
+namespace {
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
+EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref, double floor_m, int min_samples,
+                       double max_slope) {
+  EdgeLine line;
+  const auto n = samples.size();
+  if (n < static_cast<std::size_t>(std::max(min_samples, 2))) return line;
+  std::vector<double> p(n), w(n, 1.0), r(n);
+  for (std::size_t i = 0; i < n; ++i) p[i] = samples[i].y();
+  double a = 0.0, b = 0.0, tm = t_ref;  // p = a + b (t - tm)
+  double scale = floor_m;
+  constexpr double kTukey = 4.685;
+  // Tukey-reweighted least squares from a flat line through the median; with `flat` the slope
+  // stays 0 (a robust location across the side).
+  auto fit = [&](bool flat) {
+    a = median_of(p);
+    b = 0.0;
+    tm = t_ref;
+    std::fill(w.begin(), w.end(), 1.0);
+    for (int it = 0; it < 10; ++it) {
+      for (std::size_t i = 0; i < n; ++i) r[i] = samples[i].y() - (a + b * (samples[i].x() - tm));
+      std::vector<double> absr(n);
+      for (std::size_t i = 0; i < n; ++i) absr[i] = std::abs(r[i]);
+      // The first pass starts from a flat line: let its scale cover a real slope.
+      scale = std::max(1.4826 * median_of(absr), floor_m);
+      for (std::size_t i = 0; i < n; ++i) {
+        const double u = r[i] / (kTukey * scale);
+        w[i] = std::abs(u) < 1.0 ? (1 - u * u) * (1 - u * u) : 0.0;
+      }
+      double sw = 0, st = 0, sp = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        sw += w[i]; st += w[i] * samples[i].x(); sp += w[i] * samples[i].y();
+      }
+      if (sw <= 0) return false;
+      tm = st / sw;
+      const double pm = sp / sw;
+      double stt = 0, stp = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double dt = samples[i].x() - tm;
+        stt += w[i] * dt * dt;
+        stp += w[i] * dt * (samples[i].y() - pm);
+      }
+      const double nb = flat || stt <= 1e-12 ? 0.0 : stp / stt;
+      const bool converged = std::abs(pm - a) < 1e-6 * scale && std::abs(nb - b) < 1e-9;
+      a = pm;
+      b = nb;
+      if (converged && it > 2) break;
+    }
+    return true;
+  };
+  if (!fit(false)) return line;
+  // A side turned further than any box in a layer is a fit pulled by stray samples (the far end
+  // of a seam band, a hole's edge): its position is the robust location instead, its turn unknown.
+  const bool flat = std::abs(b) > max_slope;
+  if (flat && !fit(true)) return line;
+  int inliers = 0;
+  double stt = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (w[i] <= 0) continue;
+    ++inliers;
+    stt += (samples[i].x() - tm) * (samples[i].x() - tm);
+  }
+  if (inliers < std::max(min_samples, 2)) return line;
+  line.ok = true;
+  line.scale_m = scale;
+  line.inliers = inliers;
+  line.slope = b;
+  line.offset_m = a + b * (t_ref - tm);
+  const double var_a = scale * scale / inliers;
+  const double var_b = flat ? max_slope * max_slope : (stt > 1e-12 ? scale * scale / stt : 1.0);
+  line.sigma_slope = flat ? std::numeric_limits<double>::infinity() : std::sqrt(var_b);
+  line.sigma_offset_m = std::sqrt(var_a + (t_ref - tm) * (t_ref - tm) * var_b);
+  return line;
+}
+
+namespace {
+
+/// -1 (the floor beyond the side is seen) .. +1 (the side's wall hides a whole footprint of it):
+/// the blend of the two pixel-footprint cases. Seen straight down or from the far side, the
+/// floor shows; from the near side the wall hides view_slope * drop_m of it.
+double facing_blend(double view_slope, double pitch_m, double drop_m) {
+  const double ramp = drop_m > 0 ? pitch_m / drop_m : 0.0;
+  if (!(ramp > 0)) return view_slope > 0 ? 1.0 : -1.0;
+  return std::clamp(2.0 * view_slope / ramp - 1.0, -1.0, 1.0);
+}
+
+}  // namespace
+
+double outline_footprint_correction(double view_slope, double pitch_m, double drop_m) {
+  return -0.5 * pitch_m * facing_blend(view_slope, pitch_m, drop_m);
+}
+
+double seam_footprint_correction(double view_slope, double pitch_m, double drop_m) {
+  return 0.5 * pitch_m * (1.0 - std::max(0.0, facing_blend(view_slope, pitch_m, drop_m)));
+}
+
+namespace {
+
+/// How closely a pair of overlapping neighbours is made to touch [m].
+constexpr double kSolid_m = 1e-4;
+
+/// One axis of the joint fit: unknowns c_0..c_{n-1}, h_0..h_{n-1} (centre and half size).
+void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
+                const std::vector<Contact>& contacts, const std::vector<Contact>& neighbours,
+                const JointParams& params, int axis) {
+  const auto n = static_cast<Eigen::Index>(boxes.size());
+  if (n == 0) return;
+  std::vector<double> robust(sides.size(), 1.0);
+  std::vector<bool> held(boxes.size(), false);
+  std::vector<double> held_half(boxes.size(), 0.0);
+  const double c_anchor = 1.0 / (params.anchor_sigma_m * params.anchor_sigma_m);
+  const double half_sigma = 0.5 * params.size_sigma_m;
+  const double c_size = 1.0 / (half_sigma * half_sigma);
+  const double c_held = 1e12;
+  std::vector<bool> pressed(neighbours.size(), false);  // overlapping neighbours made to touch
+  std::vector<double> c0(boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) c0[i] = boxes[i].center[axis];
+  Eigen::VectorXd x(2 * n);
+  for (int round = 0; round < 12; ++round) {
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(2 * n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      A(i, i) += c_anchor;
+      rhs(i) += c_anchor * c0[ui];
+      const double hw = held[ui] ? c_held : c_size;
+      const double hv = held[ui] ? held_half[ui] : boxes[ui].half_nominal[axis];
+      A(n + i, n + i) += hw;
+      rhs(n + i) += hw * hv;
+    }
+    for (std::size_t k = 0; k < sides.size(); ++k) {
+      const SideObservation& s = sides[k];
+      if (s.axis != axis) continue;
+      const double w = robust[k] / (s.sigma_m * s.sigma_m);
+      const Eigen::Index ic = s.box, ih = n + s.box;
+      const double sg = s.sign;
+      // c + sign * h = pos
+      A(ic, ic) += w; A(ic, ih) += w * sg; A(ih, ic) += w * sg; A(ih, ih) += w;
+      rhs(ic) += w * s.pos_m;
+      rhs(ih) += w * sg * s.pos_m;
+    }
+    auto add_contact = [&](const Contact& c, double sigma_m) {
+      // (c_b - h_b) - (c_a + h_a) = 0: coefficients on c_a, h_a, c_b, h_b
+      const Eigen::Index idx[4] = {c.a, n + c.a, c.b, n + c.b};
+      const double coef[4] = {-1.0, -1.0, 1.0, -1.0};
+      const double w = 1.0 / (sigma_m * sigma_m);
+      for (int p = 0; p < 4; ++p)
+        for (int q = 0; q < 4; ++q) A(idx[p], idx[q]) += w * coef[p] * coef[q];
+    };
+    for (const Contact& c : contacts) {
+      if (c.axis == axis) add_contact(c, c.sigma_m);
+    }
+    for (std::size_t k = 0; k < neighbours.size(); ++k) {
+      if (pressed[k]) add_contact(neighbours[k], kSolid_m);
+    }
+    x = A.ldlt().solve(rhs);
+    if (!x.allFinite()) return;
+    // Huber weights on the side observations (a wrong seam must not drag a whole row).
+    bool changed = false;
+    for (std::size_t k = 0; k < sides.size(); ++k) {
+      const SideObservation& s = sides[k];
+      if (s.axis != axis) continue;
+      const double res = x(s.box) + s.sign * x(n + s.box) - s.pos_m;
+      const double z = std::abs(res) / s.sigma_m;
+      const double w = z > 3.0 ? 3.0 / z : 1.0;
+      if (std::abs(w - robust[k]) > 0.05) changed = true;
+      robust[k] = w;
+    }
+    // Solid boxes: a neighbour pair that overlaps by more than a fraction of its sigma touches.
+    for (std::size_t k = 0; k < neighbours.size(); ++k) {
+      const Contact& c = neighbours[k];
+      if (c.axis != axis || pressed[k]) continue;
+      const double gap = (x(c.b) - x(n + c.b)) - (x(c.a) + x(n + c.a));
+      if (gap < -0.5 * c.sigma_m) {
+        pressed[k] = true;
+        changed = true;
+      }
+    }
+    // Sizes outside the tolerance are held at its bound.
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      const double nom = boxes[ui].half_nominal[axis];
+      const double lo = nom - 0.5 * params.size_tolerance_m, hi = nom + 0.5 * params.size_tolerance_m;
+      if (!held[ui] && (x(n + i) < lo || x(n + i) > hi)) {
+        held[ui] = true;
+        held_half[ui] = std::clamp(x(n + i), lo, hi);
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    boxes[ui].center[axis] = x(i);
+    const double nom = boxes[ui].half_nominal[axis];
+    boxes[ui].half[axis] = std::clamp(x(n + i), nom - 0.5 * params.size_tolerance_m, nom + 0.5 * params.size_tolerance_m);
+  }
+}
+
+}  // namespace
+
+void solve_joint(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
+                 const std::vector<Contact>& contacts, const JointParams& params,
+                 const std::vector<Contact>& neighbours) {
+  solve_axis(boxes, sides, contacts, neighbours, params, 0);
+  solve_axis(boxes, sides, contacts, neighbours, params, 1);
+}
+
+}  // namespace palletd::layout_detail

@@ -1,0 +1,108 @@
+// Product layout search, node state: occupancy bits of the cell grid, the canonical frontier
+// key (two nodes with the same key have the same futures), forced cells, layouts of nodes.
+#include <algorithm>
+
+#include "search/search_product_internal.hpp"
+
+namespace palletd::layout_detail::product {
+
+std::uint64_t ProductSearch::frontier_key(const Node& n, const std::uint64_t* o) const {
+  std::uint64_t h = 1469598103934665603ULL ^ static_cast<std::uint64_t>(n.cursor);
+  const auto first = static_cast<std::size_t>(n.cursor >> 6);
+  for (std::size_t w = first; w < words_; ++w) {
+    std::uint64_t v = o[w];
+    if (w == first) v &= ~std::uint64_t{0} << (n.cursor & 63);  // bits below the cursor are decided
+    h ^= v + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+namespace {
+
+// Calls fn(word, mask) for each 64-bit word the bit range [start, start + len) touches, with the
+// bits of the range inside that word; stops early when fn returns false.
+template <typename Fn>
+bool for_each_range_word(int start, int len, Fn&& fn) {
+  int pos = start;
+  const int end = start + len;
+  while (pos < end) {
+    const int w = pos >> 6, b = pos & 63;
+    const int n = std::min(64 - b, end - pos);
+    const std::uint64_t mask = (n == 64 ? ~std::uint64_t{0} : ((std::uint64_t{1} << n) - 1)) << b;
+    if (!fn(w, mask)) return false;
+    pos += n;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool ProductSearch::range_free(const std::uint64_t* occ, int start, int len) const {
+  return for_each_range_word(start, len, [occ](int w, std::uint64_t mask) { return (occ[w] & mask) == 0; });
+}
+
+void ProductSearch::set_range(std::uint64_t* occ, int start, int len) {
+  for_each_range_word(start, len, [occ](int w, std::uint64_t mask) {
+    occ[w] |= mask;
+    return true;
+  });
+}
+
+bool ProductSearch::fits(const std::uint64_t* occ, int cell, const Placement& p) const {
+  const int i = cell % nx_, j = cell / nx_;
+  for (int row = j; row < p.j1; ++row) {
+    if (!range_free(occ, row * nx_ + i, p.i1 - i)) return false;
+  }
+  return true;
+}
+
+void ProductSearch::advance(Node& n, std::uint64_t* occ) const {
+  const int ncells = nx_ * ny_;
+  // No placement covers less of the layer than this (with an outline tolerance, less than
+  // a_min_fraction of a box can be enough).
+  const double stop_area = std::min(params_.a_min_fraction * min_box_area_, min_placement_area_);
+  while (n.cursor < ncells) {
+    const double remaining = total_area_ - n.covered - n.lost;
+    if (remaining < stop_area) {  // no further box can be placed: the rest is lost
+      n.lost += std::max(0.0, remaining);
+      n.cursor = ncells;
+      break;
+    }
+    const int c = n.cursor;
+    if ((occ[c >> 6] >> (c & 63)) & 1U) {
+      ++n.cursor;
+      continue;
+    }
+    bool any = false;
+    for (const auto& p : placements_[static_cast<std::size_t>(c)]) {
+      if (fits(occ, c, p)) {
+        any = true;
+        break;
+      }
+    }
+    if (any) break;
+    occ[c >> 6] |= std::uint64_t{1} << (c & 63);  // forced: nothing fits here
+    n.lost += cell_area_[static_cast<std::size_t>(c)];
+    ++n.cursor;
+  }
+  n.complete = n.cursor >= ncells;
+}
+
+std::vector<FrameBox> ProductSearch::boxes_of(int node) const {
+  std::vector<FrameBox> out;
+  for (int k = node; k >= 0; k = nodes_[static_cast<std::size_t>(k)].parent) {
+    const Node& n = nodes_[static_cast<std::size_t>(k)];
+    if (n.placement < 0) continue;
+    const Placement& p = placements_[static_cast<std::size_t>(n.cell)][static_cast<std::size_t>(n.placement)];
+    const int i = n.cell % nx_, j = n.cell / nx_;
+    const Shape& s = shapes_[static_cast<std::size_t>(p.shape)];
+    out.push_back({{xs_[static_cast<std::size_t>(i)], ys_[static_cast<std::size_t>(j)],
+                    xs_[static_cast<std::size_t>(p.i1)], ys_[static_cast<std::size_t>(p.j1)]},
+                   s.format, s.long_along_x});
+  }
+  std::reverse(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace palletd::layout_detail::product

@@ -1,0 +1,174 @@
+#include "palletd/results/detection_json.hpp"
+
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "palletd/frames/files.hpp"
+
+namespace palletd {
+
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+Json vec3(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+
+}  // namespace
+
+std::string detection_to_json_line(const Detection& detection, const std::string& frame_stem) {
+  Json j;
+  j["frame"] = frame_stem;
+  j["status"] = to_string(detection.status);
+  j["message"] = detection.message;
+  Json timing = Json::object();
+  const auto total = detection.timing_ms.find("total");
+  timing["total"] = total != detection.timing_ms.end() ? total->second : 0.0;
+  for (const auto& [stage, ms] : detection.timing_ms)
+    if (stage != "total") timing[stage] = ms;
+  j["timing_ms"] = std::move(timing);
+  const Plane& p = detection.plane_camera;
+  j["layer"] = {{"plane", {p.normal.x(), p.normal.y(), p.normal.z(), p.d}},
+                {"area_m2", detection.layer_area_m2},
+                {"coverage", detection.coverage}};
+  j["ambiguous"] = detection.ambiguous;
+  j["budget_exhausted"] = detection.budget_exhausted;
+  j["clipped_by_image_border"] = detection.clipped_by_image_border;
+  j["outline_unobserved"] = detection.outline_unobserved;
+  Json boxes = Json::array();
+  for (const DetectedBox& b : detection.boxes) {
+    Json box;
+    box["center"] = vec3(b.center);
+    box["long_axis"] = vec3(b.long_axis);
+    box["normal"] = vec3(b.normal);
+    box["size"] = {b.long_m, b.short_m};
+    box["format"] = b.format;
+    box["score"] = b.score;
+    box["partly_unseen"] = b.partly_unseen;
+    if (b.base_position) {
+      Json base;
+      base["position"] = vec3(*b.base_position);
+      base["yaw_deg"] = b.base_yaw_deg.value_or(0.0);
+      box["base"] = std::move(base);
+    }
+    box["pick_index"] = b.pick_index;
+    boxes.push_back(std::move(box));
+  }
+  j["boxes"] = std::move(boxes);
+  // Non-finite numbers become null (JSON has no NaN); the parser reads null back as NaN.
+  return j.dump();
+}
+
+namespace {
+
+/// A finite number, or NaN for null (what dump() writes for NaN).
+bool read_double(const nlohmann::json& v, double& out) {
+  if (v.is_null()) {
+    out = std::nan("");
+    return true;
+  }
+  if (!v.is_number()) return false;
+  out = v.get<double>();
+  return true;
+}
+
+std::string read_vec(const nlohmann::json& v, const std::string& what, std::size_t n, double* out) {
+  if (!v.is_array() || v.size() != n) return what + " must be an array of " + std::to_string(n) + " numbers";
+  for (std::size_t i = 0; i < n; ++i)
+    if (!read_double(v[i], out[i])) return what + " must be an array of " + std::to_string(n) + " numbers";
+  return {};
+}
+
+std::string parse_box(const nlohmann::json& b, const std::string& where, ParsedBox& box) {
+  if (!b.is_object()) return where + " must be an object";
+  for (auto [key, out] : {std::pair<const char*, Eigen::Vector3d*>{"center", &box.center},
+                          {"long_axis", &box.long_axis},
+                          {"normal", &box.normal}}) {
+    if (!b.contains(key)) return where + ": missing key '" + key + "'";
+    if (auto e = read_vec(b[key], where + "." + key, 3, out->data()); !e.empty()) return e;
+  }
+  if (!b.contains("size")) return where + ": missing key 'size'";
+  double size[2];
+  if (auto e = read_vec(b["size"], where + ".size", 2, size); !e.empty()) return e;
+  box.long_m = size[0];
+  box.short_m = size[1];
+  if (!b.contains("format") || !b["format"].is_number_integer()) return where + ".format must be an integer";
+  box.format = b["format"].get<int>();
+  if (b.contains("score") && !read_double(b["score"], box.score)) return where + ".score must be a number";
+  if (b.contains("partly_unseen")) {
+    if (!b["partly_unseen"].is_boolean()) return where + ".partly_unseen must be true or false";
+    box.partly_unseen = b["partly_unseen"].get<bool>();
+  }
+  if (b.contains("pick_index")) {
+    if (!b["pick_index"].is_number_integer()) return where + ".pick_index must be an integer";
+    box.pick_index = b["pick_index"].get<int>();
+  }
+  if (b.contains("base")) {
+    const nlohmann::json& base = b["base"];
+    if (!base.is_object() || !base.contains("position")) return where + ".base must hold 'position'";
+    Eigen::Vector3d position;
+    if (auto e = read_vec(base["position"], where + ".base.position", 3, position.data()); !e.empty()) return e;
+    box.base_position = position;
+    if (base.contains("yaw_deg")) {
+      double yaw = 0.0;
+      if (!read_double(base["yaw_deg"], yaw)) return where + ".base.yaw_deg must be a number";
+      box.base_yaw_deg = yaw;
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+Expected<ParsedDetection> parse_detection_line(const std::string& line) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(line);
+  } catch (const nlohmann::json::parse_error& e) {
+    return Error{"detection line is not valid JSON (byte " + std::to_string(e.byte) + ")"};
+  }
+  const auto fail = [](const std::string& problem) { return Expected<ParsedDetection>(Error{"detection line: " + problem}); };
+  if (!j.is_object()) return fail("must be a JSON object");
+  ParsedDetection d;
+  if (auto e = io_detail::get_string(j, "frame", d.frame); !e.empty()) return fail(e);
+  if (auto e = io_detail::get_string(j, "status", d.status); !e.empty()) return fail(e);
+  if (j.contains("message")) {
+    if (auto e = io_detail::get_string(j, "message", d.message); !e.empty()) return fail(e);
+  }
+  if (j.contains("timing_ms")) {
+    if (!j["timing_ms"].is_object()) return fail("key 'timing_ms' must be an object");
+    for (const auto& [stage, ms] : j["timing_ms"].items()) {
+      if (!ms.is_number()) return fail("timing_ms." + stage + " must be a number");
+      d.timing_ms[stage] = ms.get<double>();
+    }
+  }
+  if (j.contains("layer")) {
+    const nlohmann::json& layer = j["layer"];
+    if (!layer.is_object()) return fail("key 'layer' must be an object");
+    if (layer.contains("plane")) {
+      double p[4];
+      if (auto e = read_vec(layer["plane"], "layer.plane", 4, p); !e.empty()) return fail(e);
+      d.plane.normal = Eigen::Vector3d(p[0], p[1], p[2]);
+      d.plane.d = p[3];
+    }
+    if (layer.contains("area_m2") && !read_double(layer["area_m2"], d.area_m2))
+      return fail("layer.area_m2 must be a number");
+    if (layer.contains("coverage") && !read_double(layer["coverage"], d.coverage))
+      return fail("layer.coverage must be a number");
+  }
+  if (j.contains("ambiguous")) {
+    if (!j["ambiguous"].is_boolean()) return fail("key 'ambiguous' must be true or false");
+    d.ambiguous = j["ambiguous"].get<bool>();
+  }
+  if (!j.contains("boxes")) return fail("missing key 'boxes'");
+  if (!j["boxes"].is_array()) return fail("key 'boxes' must be an array");
+  for (std::size_t i = 0; i < j["boxes"].size(); ++i) {
+    ParsedBox box;
+    if (auto e = parse_box(j["boxes"][i], "boxes[" + std::to_string(i) + "]", box); !e.empty()) return fail(e);
+    d.boxes.push_back(std::move(box));
+  }
+  return d;
+}
+
+}  // namespace palletd

@@ -1,0 +1,66 @@
+// palletd io: scoring detections against truth files (for `palletctl eval` and the benchmarks).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "palletd/detection/detection.hpp"
+#include "palletd/frames/frame_io.hpp"
+
+namespace palletd {
+
+struct EvalOptions {
+  double exact_position_mm = 15.0;  ///< exact layout: every box within this ...
+  double exact_yaw_deg = 2.0;       ///< ... and this
+};
+
+/// One frame's detection against its truth.
+struct FrameEval {
+  std::string frame;
+  std::string status;         ///< the detection's status word
+  bool ambiguous = false;
+  std::size_t truth_boxes = 0, detected_boxes = 0, matched = 0;
+  std::vector<double> position_errors_mm;  ///< per matched pair
+  std::vector<double> yaw_errors_deg;      ///< per matched pair, mod 180
+  double pairwise_error_mm = 0.0;  ///< mean |d_ij(detected) - d_ij(truth)| over matched pairs (the paper's metric)
+  bool formats_right = true;
+  bool exact = false;         ///< no miss, no extra, all within tolerance, right formats
+  double runtime_ms = 0.0;
+  /// Whether the truth's own outline determines its layout: 0 = yes (unambiguous: the
+  /// detection must be exact), 1 = no (another layout fits the outline as well: exact or
+  /// flagged ambiguous is right), -1 = not checked.
+  int outline_tied = -1;
+};
+
+/// Matches detected to truth boxes (Hungarian assignment on centre distance, gated at a quarter
+/// of the truth box's shorter side) and computes the errors. `format_names` maps the detection's
+/// format index to the truth's format name ("" entries are not checked).
+FrameEval evaluate_frame(const Detection& detection, const Truth& truth,
+                         const std::vector<std::string>& format_names, const EvalOptions& options = {});
+
+struct EvalSummary {
+  std::size_t frames = 0, ok_frames = 0, exact_frames = 0, ambiguous_frames = 0;
+  std::size_t truth_boxes = 0, detected_boxes = 0, matched = 0;
+  double precision = 0.0, recall = 0.0, exact_rate = 0.0;
+  double position_median_mm = 0.0, position_p95_mm = 0.0, position_max_mm = 0.0;
+  double yaw_median_deg = 0.0, yaw_p95_deg = 0.0;
+  double pairwise_mean_mm = 0.0;
+  double runtime_median_ms = 0.0, runtime_p95_ms = 0.0;
+  /// Ambiguity-aware counts over frames with outline_tied checked: unambiguous frames and how
+  /// many were exact (and how many of them flagged ambiguous); tied frames resolved exactly,
+  /// flagged ambiguous (not exact), or wrong and unflagged.
+  std::size_t unambiguous_frames = 0, unambiguous_exact = 0, unambiguous_flagged = 0;
+  std::size_t tied_frames = 0, tied_resolved = 0, tied_flagged = 0, tied_wrong = 0;
+  double unambiguous_exact_rate = 0.0;
+};
+
+EvalSummary summarize(const std::vector<FrameEval>& frames);
+
+/// Minimum-cost assignment of rows to columns (Hungarian method); cost[r][c]. Returns for each
+/// row its column or -1 (when there are more rows than columns).
+std::vector<int> assign_min_cost(const std::vector<std::vector<double>>& cost);
+
+/// Percentile (0..100) of values by linear interpolation; 0 for an empty list.
+double percentile(std::vector<double> values, double pct);
+
+}  // namespace palletd

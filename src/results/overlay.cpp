@@ -1,0 +1,104 @@
+#include "palletd/results/overlay.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace palletd {
+
+namespace {
+
+// Depth in a colour map, stretched over the frame's valid depth range; invalid pixels black.
+cv::Mat colour_depth(const Frame& frame) {
+  const int w = frame.intrinsics.width, h = frame.intrinsics.height;
+  std::uint16_t lo = std::numeric_limits<std::uint16_t>::max(), hi = 0;
+  for (std::uint16_t d : frame.depth) {
+    if (d == 0) continue;
+    lo = std::min(lo, d);
+    hi = std::max(hi, d);
+  }
+  cv::Mat grey(h, w, CV_8UC1, cv::Scalar(0));
+  const double span = hi > lo ? static_cast<double>(hi - lo) : 1.0;
+  for (int v = 0; v < h; ++v) {
+    auto* row = grey.ptr<std::uint8_t>(v);
+    for (int u = 0; u < w; ++u) {
+      const std::uint16_t d = frame.depth[static_cast<std::size_t>(v * w + u)];
+      // Near is bright: 255 at the nearest depth, 1 at the furthest (0 stays "no data").
+      row[u] = d == 0 ? 0 : static_cast<std::uint8_t>(1.0 + 254.0 * (static_cast<double>(hi - d) / span));
+    }
+  }
+  cv::Mat colour;
+  cv::applyColorMap(grey, colour, cv::COLORMAP_TURBO);
+  colour.setTo(cv::Scalar(0, 0, 0), grey == 0);
+  return colour;
+}
+
+cv::Point2d project(const Intrinsics& in, const Eigen::Vector3d& p_camera, double scale) {
+  const double u = in.fx * p_camera.x() / p_camera.z() + in.cx;
+  const double v = in.fy * p_camera.y() / p_camera.z() + in.cy;
+  return {(u + 0.5) * scale - 0.5, (v + 0.5) * scale - 0.5};
+}
+
+std::vector<cv::Point> project_ring(const Intrinsics& in, const Eigen::Isometry3d& T_camera_layer,
+                                    const Ring2d& ring, double scale) {
+  std::vector<cv::Point> out;
+  out.reserve(ring.size());
+  for (const auto& p : ring) {
+    const cv::Point2d q = project(in, T_camera_layer * Eigen::Vector3d(p.x(), p.y(), 0.0), scale);
+    out.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection& detection) {
+  const Intrinsics& in = frame.intrinsics;
+  if (!in.valid() || frame.depth.size() != frame.pixel_count()) return {};
+  const double scale = in.width < 500 ? std::ceil(640.0 / in.width) : 1.0;
+  cv::Mat image = colour_depth(frame);
+  if (scale > 1.0) cv::resize(image, image, cv::Size(), scale, scale, cv::INTER_NEAREST);
+
+  const LayerResult& layer = detection.layer;
+  const int thick = 2;
+  for (const auto& polygon : layer.polygons) {
+    std::vector<std::vector<cv::Point>> rings{project_ring(in, layer.T_camera_layer, polygon.outer, scale)};
+    for (const auto& hole : polygon.holes) rings.push_back(project_ring(in, layer.T_camera_layer, hole, scale));
+    cv::polylines(image, rings, true, cv::Scalar(255, 255, 255), thick, cv::LINE_AA);
+  }
+  for (const auto& box : detection.boxes) {
+    std::vector<cv::Point> quad;
+    for (const auto& c : box.in_layer.corners()) {
+      const cv::Point2d q = project(in, layer.T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0), scale);
+      quad.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
+    }
+    cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(0, 0, 0), thick + 2,
+                  cv::LINE_AA);
+    cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(255, 0, 255), thick,
+                  cv::LINE_AA);
+    const cv::Point2d c = project(in, box.center, scale);
+    const std::string label = std::to_string(box.pick_index + 1);
+    int baseline = 0;
+    const double font = 0.6 * std::max(1.0, scale * in.width / 640.0);
+    const cv::Size size = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, font, 2, &baseline);
+    const cv::Point org(static_cast<int>(c.x) - size.width / 2, static_cast<int>(c.y) + size.height / 2);
+    cv::putText(image, label, org, cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(0, 0, 0), 4, cv::LINE_AA);
+    cv::putText(image, label, org, cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
+  }
+  std::string caption = std::string(to_string(detection.status)) + "  boxes: " +
+                        std::to_string(detection.boxes.size());
+  if (detection.ambiguous) caption += "  AMBIGUOUS";
+  if (detection.status != DetectionStatus::ok && !detection.message.empty()) caption += "  " + detection.message;
+  cv::putText(image, caption, cv::Point(8, 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 4, cv::LINE_AA);
+  cv::putText(image, caption, cv::Point(8, 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
+  std::vector<std::uint8_t> png;
+  cv::imencode(".png", image, png);
+  return png;
+}
+
+}  // namespace palletd

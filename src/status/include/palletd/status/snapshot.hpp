@@ -1,0 +1,54 @@
+// palletd status: what the service publishes and the status page reads: the last result as an
+// immutable snapshot, and the service's live figures. Value types only.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "palletd/core/frame.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/modbus/register_map.hpp"
+
+namespace palletd {
+
+/// One finished trigger, immutable once published.
+struct ResultSnapshot {
+  std::uint64_t trigger_seq = 0;
+  std::uint16_t request_id = 0;
+  std::uint16_t recipe = 0;
+  modbus::ErrorCode error = modbus::ErrorCode::kNone;
+  std::string error_text;         ///< "" when the detection ran; else why it did not
+  Detection detection;
+  std::shared_ptr<const Frame> frame;  ///< the frame the result was computed from (may be null)
+  double latency_ms = 0.0;        ///< trigger edge to result published [ms]
+  std::chrono::system_clock::time_point time;
+};
+
+/// Live figures of the service, for the watchdog, sd_notify STATUS= and the status page.
+struct ServiceHealth {
+  bool threads_alive = false;     ///< every thread looped within the last few seconds
+  bool camera_ok = false;
+  std::string camera_state;
+  std::string camera_id;
+  std::uint64_t triggers = 0;
+  std::uint64_t results = 0;
+  std::uint64_t failures = 0;
+  std::uint64_t frames = 0;
+  std::uint64_t reconnects = 0;
+  std::uint16_t modbus_port = 0;
+  std::size_t modbus_connections = 0;
+  std::uint64_t camera_restarts = 0;     ///< trigger-mode camera restarted after timeouts in a row
+  std::uint64_t incomplete_frames = 0;   ///< frames the driver refused (missing packets, wrong size/format)
+  std::uint64_t grab_timeouts = 0;       ///< grabs that ended without a frame in time
+  std::uint64_t dropped_frames = 0;      ///< frames the camera sent that were lost (no buffer, overrun)
+  std::uint64_t camera_losses = 0;       ///< times the camera was found gone (faulted)
+  std::uint64_t resent_packets = 0;      ///< GigE Vision packets resent on request
+  std::uint64_t recordings = 0;          ///< frames recorded since start
+  std::uint64_t recording_failures = 0;  ///< recordings that failed (disk full, read-only, ...)
+  std::string last_recording_error;      ///< "" when the last recording succeeded
+};
+
+}  // namespace palletd
