@@ -1,3 +1,5 @@
+// The Aravis driver (see aravis_camera.hpp): closing, streaming and grabbing. Opening and
+// configuring the camera: aravis_camera_open.cpp.
 #include "aravis/aravis_camera.hpp"
 
 #include <arv.h>
@@ -6,79 +8,12 @@
 #include <cstring>
 #include <utility>
 
+#include "aravis/aravis_camera_impl.hpp"
 #include "aravis/depth_convert.hpp"
 
 namespace palletd {
 
-namespace {
-
-/// Owns one reference of a GObject.
-template <typename T>
-struct GObjectUnref {
-  void operator()(T* p) const {
-    if (p != nullptr) g_object_unref(p);
-  }
-};
-template <typename T>
-using GPtr = std::unique_ptr<T, GObjectUnref<T>>;
-
-/// Takes a GError's message and frees it; "" when there was none.
-std::string take(GError*& error) {
-  if (error == nullptr) return {};
-  std::string message = error->message != nullptr ? error->message : "unknown error";
-  g_clear_error(&error);
-  return message;
-}
-
-std::string str_or(const char* s, const char* fallback) { return s != nullptr ? s : fallback; }
-
-}  // namespace
-
-struct AravisCamera::Impl {
-  GPtr<ArvCamera> camera;
-  GPtr<ArvStream> stream;
-  gulong control_lost_handler = 0;
-  std::atomic<bool> control_lost{false};
-  bool unreachable = false;  ///< a control-channel call timed out: do not talk to it on close
-  ArvPixelFormat pixel_format = 0;
-  aravis::Scan3dParams scan3d;
-  Intrinsics intrinsics;
-  std::string camera_id;
-  // Stream statistics folded in when a stream is destroyed (counters survive reconnects).
-  std::uint64_t drops_base = 0;
-  std::uint64_t resent_base = 0;
-
-  bool feature(const char* name) const {
-    GError* error = nullptr;
-    const gboolean available = arv_camera_is_feature_available(camera.get(), name, &error);
-    g_clear_error(&error);
-    return available != FALSE;
-  }
-  std::optional<double> get_float(const char* name) const {
-    if (!feature(name)) return std::nullopt;
-    GError* error = nullptr;
-    const double v = arv_camera_get_float(camera.get(), name, &error);
-    if (error != nullptr) {
-      g_clear_error(&error);
-      // Some cameras publish these as Integer features.
-      const gint64 i = arv_camera_get_integer(camera.get(), name, &error);
-      if (error != nullptr) {
-        g_clear_error(&error);
-        return std::nullopt;
-      }
-      return static_cast<double>(i);
-    }
-    return v;
-  }
-};
-
-namespace {
-
-void on_control_lost(ArvDevice* /*device*/, gpointer user_data) {
-  static_cast<std::atomic<bool>*>(user_data)->store(true);
-}
-
-}  // namespace
+using aravis::take;
 
 AravisCamera::AravisCamera(AravisOptions options)
     : options_(std::move(options)), impl_(std::make_unique<Impl>()) {
@@ -90,152 +25,6 @@ AravisCamera::AravisCamera(AravisOptions options)
 }
 
 AravisCamera::~AravisCamera() { close(); }
-
-Status AravisCamera::do_open() {
-  GError* error = nullptr;
-  const std::string name = !options_.address.empty() ? options_.address
-                           : !options_.serial.empty() ? options_.serial
-                                                      : options_.user_id;
-  // All empty: the first camera discovery finds (commissioning with one camera on the link).
-  impl_->camera.reset(arv_camera_new(name.empty() ? nullptr : name.c_str(), &error));
-  if (!impl_->camera) {
-    return Error{"aravis: cannot open camera '" + (name.empty() ? std::string("(first found)") : name) +
-                 "': " + take(error)};
-  }
-  ArvCamera* cam = impl_->camera.get();
-  if (!arv_camera_is_gv_device(cam)) return Error{"aravis: '" + name + "' is not a GigE Vision camera"};
-
-  CameraIdentity id;
-  id.driver = "aravis";
-  id.vendor = str_or(arv_camera_get_vendor_name(cam, &error), "");
-  g_clear_error(&error);
-  id.model = str_or(arv_camera_get_model_name(cam, &error), "");
-  g_clear_error(&error);
-  id.serial = str_or(arv_camera_get_device_serial_number(cam, &error), "");
-  g_clear_error(&error);
-  ArvDevice* device = arv_camera_get_device(cam);
-  {
-    GSocketAddress* address = arv_gv_device_get_device_address(ARV_GV_DEVICE(device));
-    if (address != nullptr) {
-      GInetAddress* inet = g_inet_socket_address_get_address(G_INET_SOCKET_ADDRESS(address));
-      gchar* text = g_inet_address_to_string(inet);
-      id.address = text != nullptr ? text : "";
-      g_free(text);
-    }
-  }
-  if (!options_.serial.empty() && id.serial != options_.serial) {
-    return Error{"aravis: camera at " + id.address + " has serial '" + id.serial +
-                 "', configured '" + options_.serial + "'"};
-  }
-  if (!options_.user_id.empty() && impl_->feature("DeviceUserID")) {
-    const std::string user = str_or(arv_camera_get_string(cam, "DeviceUserID", &error), "");
-    g_clear_error(&error);
-    if (user != options_.user_id) {
-      return Error{"aravis: camera at " + id.address + " has user id '" + user + "', configured '" +
-                   options_.user_id + "'"};
-    }
-  }
-  impl_->camera_id = id.id();
-  set_identity(id);
-
-  impl_->control_lost = false;
-  impl_->control_lost_handler =
-      g_signal_connect(device, "control-lost", G_CALLBACK(on_control_lost), &impl_->control_lost);
-
-  // Pixel format.
-  arv_camera_set_pixel_format_from_string(cam, options_.pixel_format.c_str(), &error);
-  if (error != nullptr) {
-    return Error{"aravis: camera " + impl_->camera_id + " refuses PixelFormat " +
-                 options_.pixel_format + ": " + take(error)};
-  }
-  impl_->pixel_format = arv_camera_get_pixel_format(cam, &error);
-  if (error != nullptr) return Error{"aravis: cannot read PixelFormat: " + take(error)};
-
-  // Scan3d description of the depth coordinate.
-  aravis::Scan3dParams p;
-  if (impl_->pixel_format == ARV_PIXEL_FORMAT_MONO_16) {
-    p.scale = options_.mono16_scale_m;
-    p.unit_m = 1.0;
-  } else {
-    if (impl_->feature("Scan3dCoordinateSelector")) {
-      arv_camera_set_string(cam, "Scan3dCoordinateSelector", "CoordinateC", &error);
-      g_clear_error(&error);
-    }
-    if (auto v = impl_->get_float("Scan3dCoordinateScale")) p.scale = *v;
-    if (auto v = impl_->get_float("Scan3dCoordinateOffset")) p.offset = *v;
-    if (impl_->feature("Scan3dDistanceUnit")) {
-      const std::string unit = str_or(arv_camera_get_string(cam, "Scan3dDistanceUnit", &error), "");
-      g_clear_error(&error);
-      if (unit == "Meter") p.unit_m = 1.0;
-      else if (unit == "Inch") p.unit_m = 0.0254;
-      else if (unit == "Micrometer") p.unit_m = 1e-6;
-      else p.unit_m = 0.001;  // Millimeter, the SFNC default
-    }
-    if (impl_->feature("Scan3dInvalidDataFlag") || impl_->feature("Scan3dInvalidDataValue")) {
-      p.invalid = impl_->get_float("Scan3dInvalidDataValue");
-    }
-    if (!(p.scale > 0.0)) {
-      return Error{"aravis: camera " + impl_->camera_id + " reports Scan3dCoordinateScale " +
-                   std::to_string(p.scale)};
-    }
-  }
-  impl_->scan3d = p;
-
-  // Intrinsics: the configuration wins, then the camera's Scan3d features.
-  gint x = 0, y = 0, width = 0, height = 0;
-  arv_camera_get_region(cam, &x, &y, &width, &height, &error);
-  if (error != nullptr) return Error{"aravis: cannot read the image region: " + take(error)};
-  if (options_.intrinsics_override) {
-    impl_->intrinsics = *options_.intrinsics_override;
-  } else {
-    const auto f = impl_->get_float("Scan3dFocalLength");
-    const auto u = impl_->get_float("Scan3dPrincipalPointU");
-    const auto v = impl_->get_float("Scan3dPrincipalPointV");
-    if (!f || !u || !v || !(*f > 0.0)) {
-      return Error{"aravis: camera " + impl_->camera_id +
-                   " has no Scan3dFocalLength/Scan3dPrincipalPointU/V; set camera.intrinsics"};
-    }
-    impl_->intrinsics = Intrinsics{};
-    impl_->intrinsics.fx = impl_->intrinsics.fy = *f;
-    impl_->intrinsics.cx = *u;
-    impl_->intrinsics.cy = *v;
-  }
-  impl_->intrinsics.width = width;
-  impl_->intrinsics.height = height;
-  if (options_.intrinsics_override &&
-      (options_.intrinsics_override->width != width || options_.intrinsics_override->height != height)) {
-    return Error{"aravis: camera image is " + std::to_string(width) + "x" + std::to_string(height) +
-                 ", configured intrinsics are for " + std::to_string(options_.intrinsics_override->width) +
-                 "x" + std::to_string(options_.intrinsics_override->height)};
-  }
-
-  // Trigger mode.
-  const bool sw = options_.software_trigger && arv_camera_is_software_trigger_supported(cam, &error);
-  g_clear_error(&error);
-  if (sw) {
-    arv_camera_set_trigger(cam, "Software", &error);
-    if (error != nullptr) return Error{"aravis: cannot set software trigger: " + take(error)};
-  } else {
-    arv_camera_clear_triggers(cam, &error);
-    g_clear_error(&error);
-  }
-  arv_camera_set_acquisition_mode(cam, ARV_ACQUISITION_MODE_CONTINUOUS, &error);
-  if (error != nullptr) return Error{"aravis: cannot set AcquisitionMode: " + take(error)};
-  trigger_mode_ = sw;
-
-  // Packet size.
-  if (options_.packet_size > 0) {
-    arv_camera_gv_set_packet_size(cam, options_.packet_size, &error);
-    if (error != nullptr) {
-      return Error{"aravis: cannot set packet size " + std::to_string(options_.packet_size) + ": " +
-                   take(error)};
-    }
-  } else {
-    arv_camera_gv_auto_packet_size(cam, &error);
-    g_clear_error(&error);  // the camera keeps its packet size
-  }
-  return {};
-}
 
 Status AravisCamera::do_start() {
   ArvCamera* cam = impl_->camera.get();

@@ -1,5 +1,6 @@
 // The Aravis driver: GigE Vision ToF cameras (Basler blaze, Lucid Helios2 and similar).
-// Private header: only drivers/ sees it, and it names no Aravis type (those stay in the .cpp).
+// Private header: only drivers/ sees it, and it names no Aravis type (those stay in
+// aravis_camera_impl.hpp and the .cpp files).
 #pragma once
 
 #include <atomic>
@@ -13,7 +14,8 @@
 
 namespace palletd {
 
-/// One GigE Vision camera through Aravis. All GObjects are owned by RAII wrappers in the .cpp.
+/// One GigE Vision camera through Aravis. All GObjects are owned by RAII wrappers (Impl, in
+/// aravis_camera_impl.hpp, which only the driver's .cpp files include).
 class AravisCamera final : public Camera {
  public:
   explicit AravisCamera(AravisOptions options);
@@ -34,6 +36,15 @@ class AravisCamera final : public Camera {
   struct Impl;
   void update_stream_counters();
   Status probe_control();
+
+  // do_open() in phases (aravis_camera_open.cpp), in the order it calls them.
+  Status connect_camera();
+  Status check_identity(const CameraIdentity& id) const;
+  Status configure_pixel_format();
+  Status read_scan3d();
+  Status read_intrinsics();
+  Status configure_acquisition();
+  Status configure_packet_size();
 
   AravisOptions options_;
   std::unique_ptr<Impl> impl_;

@@ -73,62 +73,165 @@ int OpenNI2Camera::recording_frame_count() const {
   return (impl_ && impl_->session && impl_->session->is_file) ? impl_->session->file_frames : 0;
 }
 
-Status OpenNI2Camera::open_device() {
-  auto s = std::make_unique<Session>();
-  const bool file = is_oni_path(options_.uri);
-  if (file && !std::filesystem::is_regular_file(options_.uri)) {
-    return Error{"openni2: recording " + options_.uri + " does not exist"};
+namespace {
+
+/// Depth units asked of a live device: below this configured unit 100 um (DEPTH_100_UM), else 1 mm.
+constexpr double kDepthUnitSplit_m = 0.0005;
+/// .oni playback speed: the recorded (real-time) rate.
+constexpr float kRealTimeSpeed = 1.0f;
+/// Room for the serial number a device reports (including its terminating NUL) [chars].
+constexpr std::size_t kSerialChars = 256;
+/// One second [us].
+constexpr double kSecond_us = 1e6;
+
+/// Opens the device (or .oni recording) the options name and creates its depth stream.
+Status open_device_and_depth(Session& s, const OpenNI2Options& options) {
+  const bool file = is_oni_path(options.uri);
+  if (file && !std::filesystem::is_regular_file(options.uri)) {
+    return Error{"openni2: recording " + options.uri + " does not exist"};
   }
-  const char* uri = options_.uri.empty() ? openni::ANY_DEVICE : options_.uri.c_str();
-  if (s->device.open(uri) != openni::STATUS_OK) {
-    return Error{"openni2: cannot open " + (options_.uri.empty() ? std::string("the first device") : options_.uri) +
+  const char* uri = options.uri.empty() ? openni::ANY_DEVICE : options.uri.c_str();
+  if (s.device.open(uri) != openni::STATUS_OK) {
+    return Error{"openni2: cannot open " + (options.uri.empty() ? std::string("the first device") : options.uri) +
                  ": " + oni_error()};
   }
-  s->is_file = s->device.isFile();
-  if (!s->device.hasSensor(openni::SENSOR_DEPTH)) {
-    return Error{"openni2: " + std::string(s->device.getDeviceInfo().getUri()) + " has no depth sensor"};
+  s.is_file = s.device.isFile();
+  if (!s.device.hasSensor(openni::SENSOR_DEPTH)) {
+    return Error{"openni2: " + std::string(s.device.getDeviceInfo().getUri()) + " has no depth sensor"};
   }
-  if (s->depth.create(s->device, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
+  if (s.depth.create(s.device, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
     return Error{"openni2: cannot create the depth stream: " + oni_error()};
   }
+  return {};
+}
 
-  if (s->is_file) {
-    openni::PlaybackControl* playback = s->device.getPlaybackControl();
-    if (playback == nullptr) return Error{"openni2: " + options_.uri + " opened without playback control"};
-    // Real-time playback; never -1 (manual stepping hangs waitForAnyStream in OpenNI2 2.2), and
-    // no built-in repeat: the end of the file is found by frame index and rewound by reopening.
-    if (playback->setSpeed(1.0f) != openni::STATUS_OK || playback->setRepeatEnabled(false) != openni::STATUS_OK) {
-      return Error{"openni2: cannot set up playback of " + options_.uri + ": " + oni_error()};
+/// .oni recording: real-time playback without repeat; counts the depth frames it holds.
+Status configure_playback(Session& s, const OpenNI2Options& options) {
+  openni::PlaybackControl* playback = s.device.getPlaybackControl();
+  if (playback == nullptr) return Error{"openni2: " + options.uri + " opened without playback control"};
+  // Real-time playback; never -1 (manual stepping hangs waitForAnyStream in OpenNI2 2.2), and
+  // no built-in repeat: the end of the file is found by frame index and rewound by reopening.
+  if (playback->setSpeed(kRealTimeSpeed) != openni::STATUS_OK ||
+      playback->setRepeatEnabled(false) != openni::STATUS_OK) {
+    return Error{"openni2: cannot set up playback of " + options.uri + ": " + oni_error()};
+  }
+  s.file_frames = playback->getNumberOfFrames(s.depth);
+  if (s.file_frames <= 0) return Error{"openni2: recording " + options.uri + " holds no depth frames"};
+  return {};
+}
+
+/// Live device: the configured depth mode (width, height, fps and depth unit), when the device
+/// offers it (the error lists the modes it does offer); mirroring off where it can be set.
+Status select_depth_mode(Session& s, const OpenNI2Options& options) {
+  const openni::SensorInfo& info = s.depth.getSensorInfo();
+  const openni::Array<openni::VideoMode>& modes = info.getSupportedVideoModes();
+  const openni::PixelFormat want =
+      options.depth_unit_m < kDepthUnitSplit_m ? openni::PIXEL_FORMAT_DEPTH_100_UM : openni::PIXEL_FORMAT_DEPTH_1_MM;
+  int found = -1;
+  std::string listed;
+  for (int i = 0; i < modes.getSize(); ++i) {
+    const openni::VideoMode& m = modes[i];
+    listed += (listed.empty() ? "" : ", ") + mode_text(m);
+    if (found < 0 && m.getResolutionX() == options.width && m.getResolutionY() == options.height &&
+        m.getFps() == options.fps && m.getPixelFormat() == want) {
+      found = i;
     }
-    s->file_frames = playback->getNumberOfFrames(s->depth);
-    if (s->file_frames <= 0) return Error{"openni2: recording " + options_.uri + " holds no depth frames"};
-  } else {
-    const openni::SensorInfo& info = s->depth.getSensorInfo();
-    const openni::Array<openni::VideoMode>& modes = info.getSupportedVideoModes();
-    const openni::PixelFormat want =
-        options_.depth_unit_m < 0.0005 ? openni::PIXEL_FORMAT_DEPTH_100_UM : openni::PIXEL_FORMAT_DEPTH_1_MM;
-    int found = -1;
-    std::string listed;
+  }
+  if (found < 0) {
+    openni::VideoMode w;
+    w.setResolution(options.width, options.height);
+    w.setFps(options.fps);
+    w.setPixelFormat(want);
+    return Error{"openni2: depth mode " + mode_text(w) + " not offered by " + s.device.getDeviceInfo().getUri() +
+                 " (it offers " + listed + "; set camera.openni2.width/height/fps/depth_unit_m)"};
+  }
+  if (s.depth.setVideoMode(modes[found]) != openni::STATUS_OK) {
+    return Error{"openni2: device refuses depth mode " + mode_text(modes[found]) + ": " + oni_error()};
+  }
+  if (s.depth.isPropertySupported(openni::STREAM_PROPERTY_MIRRORING)) (void)s.depth.setMirroringEnabled(false);
+  return {};
+}
+
+/// IR as intensity, where it is wanted, the device has it and the mode matches the depth image
+/// (`depth_mode`): sets s.has_ir. A live device's IR stream gets a gray mode of the depth image's
+/// size and mirroring off; one that does not match is destroyed again.
+void open_ir_stream(Session& s, const OpenNI2Options& options, const openni::VideoMode& depth_mode) {
+  if (!options.ir_as_intensity || !s.device.hasSensor(openni::SENSOR_IR) ||
+      s.ir.create(s.device, openni::SENSOR_IR) != openni::STATUS_OK) {
+    return;
+  }
+  if (!s.is_file) {
+    const openni::Array<openni::VideoMode>& modes = s.ir.getSensorInfo().getSupportedVideoModes();
     for (int i = 0; i < modes.getSize(); ++i) {
       const openni::VideoMode& m = modes[i];
-      listed += (listed.empty() ? "" : ", ") + mode_text(m);
-      if (found < 0 && m.getResolutionX() == options_.width && m.getResolutionY() == options_.height &&
-          m.getFps() == options_.fps && m.getPixelFormat() == want) {
-        found = i;
+      if (m.getResolutionX() == depth_mode.getResolutionX() &&
+          m.getResolutionY() == depth_mode.getResolutionY() &&
+          (m.getPixelFormat() == openni::PIXEL_FORMAT_GRAY16 || m.getPixelFormat() == openni::PIXEL_FORMAT_GRAY8) &&
+          s.ir.setVideoMode(m) == openni::STATUS_OK) {
+        break;
       }
     }
-    if (found < 0) {
-      openni::VideoMode w;
-      w.setResolution(options_.width, options_.height);
-      w.setFps(options_.fps);
-      w.setPixelFormat(want);
-      return Error{"openni2: depth mode " + mode_text(w) + " not offered by " + s->device.getDeviceInfo().getUri() +
-                   " (it offers " + listed + "; set camera.openni2.width/height/fps/depth_unit_m)"};
+    if (s.ir.isPropertySupported(openni::STREAM_PROPERTY_MIRRORING)) (void)s.ir.setMirroringEnabled(false);
+  }
+  const openni::VideoMode irm = s.ir.getVideoMode();
+  s.has_ir = irm.getResolutionX() == depth_mode.getResolutionX() &&
+             irm.getResolutionY() == depth_mode.getResolutionY() &&
+             (irm.getPixelFormat() == openni::PIXEL_FORMAT_GRAY16 ||
+              irm.getPixelFormat() == openni::PIXEL_FORMAT_GRAY8);
+  if (!s.has_ir && !s.is_file) s.ir.destroy();  // a file's streams go with its device (~Session)
+}
+
+/// Intrinsics: configured (they must be for the depth image's size), else from the depth
+/// stream's field of view.
+Expected<Intrinsics> depth_intrinsics(Session& s, const OpenNI2Options& options,
+                                      const openni::VideoMode& mode) {
+  Intrinsics k;
+  if (options.intrinsics_override) {
+    k = *options.intrinsics_override;
+    if (k.width != mode.getResolutionX() || k.height != mode.getResolutionY()) {
+      return Error{"openni2: configured intrinsics are " + std::to_string(k.width) + "x" + std::to_string(k.height) +
+                   " but the depth stream is " + mode_text(mode)};
     }
-    if (s->depth.setVideoMode(modes[found]) != openni::STATUS_OK) {
-      return Error{"openni2: device refuses depth mode " + mode_text(modes[found]) + ": " + oni_error()};
+  } else {
+    k = intrinsics_from_fov(mode.getResolutionX(), mode.getResolutionY(), s.depth.getHorizontalFieldOfView(),
+                            s.depth.getVerticalFieldOfView());
+    if (!k.valid()) {
+      return Error{"openni2: " + std::string(s.device.getDeviceInfo().getUri()) +
+                   " reports no usable field of view; configure camera.intrinsics"};
     }
-    if (s->depth.isPropertySupported(openni::STREAM_PROPERTY_MIRRORING)) (void)s->depth.setMirroringEnabled(false);
+  }
+  return k;
+}
+
+/// Who the device is: vendor, model and URI from `info` (the device's); the serial number where
+/// a live device reports one, else the recording's file name (.oni) or the URI.
+CameraIdentity read_identity(Session& s, const openni::DeviceInfo& info, const OpenNI2Options& options) {
+  CameraIdentity id;
+  id.driver = "openni2";
+  id.vendor = info.getVendor();
+  id.model = info.getName();
+  id.address = info.getUri();
+  char serial[kSerialChars] = {};
+  int serial_size = static_cast<int>(sizeof(serial) - 1);
+  if (!s.is_file && s.device.isPropertySupported(openni::DEVICE_PROPERTY_SERIAL_NUMBER) &&
+      s.device.getProperty(openni::DEVICE_PROPERTY_SERIAL_NUMBER, serial, &serial_size) == openni::STATUS_OK) {
+    id.serial = std::string(serial, strnlen(serial, sizeof(serial)));
+  }
+  if (id.serial.empty()) id.serial = s.is_file ? std::filesystem::path(options.uri).stem().string() : id.address;
+  if (id.model.empty()) id.model = "openni2";
+  return id;
+}
+
+}  // namespace
+
+/// Opens the device or .oni recording and sets up its streams (depth in the configured mode or
+/// real-time playback, IR where wanted), then works out the intrinsics and the identity. The
+/// session goes to impl_ only when all of it worked (on an error it is torn down here).
+Status OpenNI2Camera::open_device() {
+  auto s = std::make_unique<Session>();
+  if (Status st = open_device_and_depth(*s, options_); !st) return st;
+  if (Status st = s->is_file ? configure_playback(*s, options_) : select_depth_mode(*s, options_); !st) {
+    return st;
   }
 
   const openni::VideoMode mode = s->depth.getVideoMode();
@@ -136,66 +239,17 @@ Status OpenNI2Camera::open_device() {
   if (scale <= 0.0) {
     return Error{"openni2: depth stream delivers " + mode_text(mode) + "; palletd takes 1mm or 100um depth"};
   }
+  open_ir_stream(*s, options_, mode);
+  const Expected<Intrinsics> k = depth_intrinsics(*s, options_, mode);
+  if (!k) return Error{k.error()};
 
-  // IR as intensity, where the device has it and the mode matches the depth image.
-  if (options_.ir_as_intensity && s->device.hasSensor(openni::SENSOR_IR) &&
-      s->ir.create(s->device, openni::SENSOR_IR) == openni::STATUS_OK) {
-    if (!s->is_file) {
-      const openni::Array<openni::VideoMode>& modes = s->ir.getSensorInfo().getSupportedVideoModes();
-      for (int i = 0; i < modes.getSize(); ++i) {
-        const openni::VideoMode& m = modes[i];
-        if (m.getResolutionX() == mode.getResolutionX() && m.getResolutionY() == mode.getResolutionY() &&
-            (m.getPixelFormat() == openni::PIXEL_FORMAT_GRAY16 || m.getPixelFormat() == openni::PIXEL_FORMAT_GRAY8) &&
-            s->ir.setVideoMode(m) == openni::STATUS_OK) {
-          break;
-        }
-      }
-      if (s->ir.isPropertySupported(openni::STREAM_PROPERTY_MIRRORING)) (void)s->ir.setMirroringEnabled(false);
-    }
-    const openni::VideoMode irm = s->ir.getVideoMode();
-    s->has_ir = irm.getResolutionX() == mode.getResolutionX() && irm.getResolutionY() == mode.getResolutionY() &&
-                (irm.getPixelFormat() == openni::PIXEL_FORMAT_GRAY16 || irm.getPixelFormat() == openni::PIXEL_FORMAT_GRAY8);
-    if (!s->has_ir && !s->is_file) s->ir.destroy();  // a file's streams go with its device (~Session)
-  }
-
-  // Intrinsics: configured, else from the field of view.
-  Intrinsics k;
-  if (options_.intrinsics_override) {
-    k = *options_.intrinsics_override;
-    if (k.width != mode.getResolutionX() || k.height != mode.getResolutionY()) {
-      return Error{"openni2: configured intrinsics are " + std::to_string(k.width) + "x" + std::to_string(k.height) +
-                   " but the depth stream is " + mode_text(mode)};
-    }
-  } else {
-    k = intrinsics_from_fov(mode.getResolutionX(), mode.getResolutionY(), s->depth.getHorizontalFieldOfView(),
-                            s->depth.getVerticalFieldOfView());
-    if (!k.valid()) {
-      return Error{"openni2: " + std::string(s->device.getDeviceInfo().getUri()) +
-                   " reports no usable field of view; configure camera.intrinsics"};
-    }
-  }
-
-  // Identity.
-  CameraIdentity id;
-  id.driver = "openni2";
   const openni::DeviceInfo& info = s->device.getDeviceInfo();
-  id.vendor = info.getVendor();
-  id.model = info.getName();
-  id.address = info.getUri();
-  char serial[256] = {};
-  int serial_size = static_cast<int>(sizeof(serial) - 1);
-  if (!s->is_file && s->device.isPropertySupported(openni::DEVICE_PROPERTY_SERIAL_NUMBER) &&
-      s->device.getProperty(openni::DEVICE_PROPERTY_SERIAL_NUMBER, serial, &serial_size) == openni::STATUS_OK) {
-    id.serial = std::string(serial, strnlen(serial, sizeof(serial)));
-  }
-  if (id.serial.empty()) id.serial = s->is_file ? std::filesystem::path(options_.uri).stem().string() : id.address;
-  if (id.model.empty()) id.model = "openni2";
-
+  CameraIdentity id = read_identity(*s, info, options_);
   impl_->uri = info.getUri();
   impl_->camera_id = id.id();
-  impl_->intrinsics = k;
+  impl_->intrinsics = *k;
   impl_->depth_scale_m = scale;
-  impl_->frame_period_us = 1e6 / std::max(1, mode.getFps());
+  impl_->frame_period_us = kSecond_us / std::max(1, mode.getFps());
   impl_->session = std::move(s);
   set_identity(std::move(id));
   return {};

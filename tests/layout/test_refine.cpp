@@ -7,7 +7,7 @@
 #include <random>
 #include <utility>
 
-#include "../../src/detection/layout/refine_joint.hpp"
+#include "../../src/detection/layout/refinement/refine_joint.hpp"
 #include "layout_fixtures.hpp"
 #include "palletd/detection/layout.hpp"
 

@@ -12,7 +12,7 @@
 
 #include <Eigen/Geometry>
 
-#include "../../src/detection/layout/refine_joint.hpp"
+#include "../../src/detection/layout/refinement/refine_joint.hpp"
 #include "layout_fixtures.hpp"
 #include "palletd/detection/layout.hpp"
 

@@ -2,7 +2,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
+#include <string>
 
 #include "layer_stages.hpp"
 
@@ -10,6 +12,11 @@ namespace palletd {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+/// Crust pruning length when ContourParams::d_max_m is 0 [pitches of the ring].
+constexpr double kCrustDMax_pitches = 2.0;
+/// A ring enclosing less than this many pixel footprints (pitch^2) is no outline [px].
+constexpr double kMinRingArea_px = 2.0;
 
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -116,6 +123,167 @@ RingGeometry ring_geometry(const layer::RingPixels& ring, const cv::Mat& mask, c
   return g;
 }
 
+/// Why the frame cannot be used, if it cannot: its intrinsics do not match the cloud, no pixel
+/// has a depth, or most depths lie outside [min_depth_m, max_depth_m]. `usable`: the points
+/// within that range (counted once the intrinsics match).
+std::optional<std::string> frame_problem(const Intrinsics& K, const OrganizedCloud& cloud,
+                                         const PlaneParams& plane_params, std::size_t& usable) {
+  if (!K.valid() || cloud.width != K.width || cloud.height != K.height ||
+      cloud.points.size() != static_cast<std::size_t>(cloud.width) * static_cast<std::size_t>(cloud.height)) {
+    return "frame intrinsics and organized cloud do not match";
+  }
+  std::size_t finite = 0;
+  for (const Eigen::Vector3f& p : cloud.points) {
+    if (!p.allFinite()) continue;
+    ++finite;
+    if (layer::usable(p, plane_params)) ++usable;
+  }
+  if (finite == 0) return "every pixel of the frame is invalid";
+  if (usable * 2 < finite) {
+    std::ostringstream s;
+    s << "most depths are outside [" << plane_params.min_depth_m << ", " << plane_params.max_depth_m
+      << "] m (" << (finite - usable) << " of " << finite << " pixels)";
+    return s.str();
+  }
+  return std::nullopt;
+}
+
+/// The layer's points: the mask's pixels with a usable depth, row by row, in the layer frame,
+/// with their pixel indices.
+void collect_layer_points(const cv::Mat& mask, const OrganizedCloud& cloud,
+                          const Eigen::Isometry3d& T_layer_camera, const PlaneParams& plane_params,
+                          LayerResult& result) {
+  const Eigen::Matrix3f R = T_layer_camera.linear().cast<float>();
+  const Eigen::Vector3f t = T_layer_camera.translation().cast<float>();
+  const auto n_layer = static_cast<std::size_t>(cv::countNonZero(mask));
+  result.points_2d.reserve(n_layer);
+  result.point_pixels.reserve(n_layer);
+  for (int v = 0; v < mask.rows; ++v) {
+    const auto* m = mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < mask.cols; ++u) {
+      if (m[u] == 0) continue;
+      const Eigen::Vector3f& p = cloud.at(u, v);
+      if (!layer::usable(p, plane_params)) continue;
+      result.points_2d.push_back((R * p + t).head<2>());
+      result.point_pixels.push_back(v * mask.cols + u);
+    }
+  }
+  result.diagnostics.layer_points = result.points_2d.size();
+}
+
+/// The cleaned mask (1 = layer) and the border pixels, for the debug pictures.
+void record_mask(const layer::LayerMask& lm, LayerTrace& trace) {
+  trace.width = lm.mask.cols;
+  trace.height = lm.mask.rows;
+  trace.layer_mask.assign(lm.mask.datastart, lm.mask.dataend);
+  for (auto& m : trace.layer_mask) m = m != 0 ? 1 : 0;
+  trace.border_pixels.clear();
+  for (int v = 0; v < lm.border.rows; ++v)
+    for (int u = 0; u < lm.border.cols; ++u)
+      if (lm.border.at<std::uint8_t>(v, u) != 0) trace.border_pixels.push_back(v * lm.border.cols + u);
+}
+
+/// What stage 5 takes from the stages before it.
+struct OutlineContext {
+  const cv::Mat& mask;
+  const layer::PixelToLayer& to_layer;
+  const OrganizedCloud& cloud;
+  const Plane& plane;
+  const layer::BandTable& band;
+  const Eigen::Isometry3d& T_layer_camera;
+  const PlaneParams& plane_params;
+  double fx_px = 0.0;
+  const LayerParams& layer_params;
+  const ContourParams& contour_params;
+  LayerTrace* trace = nullptr;  ///< null: no debug trace
+};
+
+/// The outline samples of the rings traced, and those of them whose outside is unobserved.
+struct OutlineCounts {
+  std::size_t samples = 0;
+  std::size_t unobserved = 0;
+};
+
+/// The crust through a ring's border pixels (Delaunay edges up to d_max_m), kept in the trace
+/// with its edges when there is one.
+std::vector<Eigen::Vector2d> crust_of(const RingGeometry& g, const layer::RingPixels& pixels, double d_max_m,
+                                      LayerTrace* trace) {
+  std::vector<std::pair<int, int>> edges;
+  const std::vector<int> order = layer::crust_ring(g.points, pixels.chain, d_max_m, trace ? &edges : nullptr);
+  std::vector<Eigen::Vector2d> crust;
+  crust.reserve(order.size());
+  for (const int i : order) crust.push_back(g.points[static_cast<std::size_t>(i)]);
+  if (trace) {
+    for (const auto& [a, b] : edges)
+      trace->crust_edges.emplace_back(g.points[static_cast<std::size_t>(a)], g.points[static_cast<std::size_t>(b)]);
+    trace->crust_rings.push_back(crust);
+  }
+  return crust;
+}
+
+/// One ring's polygon: the crust through its border pixels, simplified (the crust itself when
+/// that fails); counter-clockwise for an outer ring, clockwise for a hole. Empty when it encloses
+/// less than kMinRingArea_px pixel footprints (e.g. a collapsed sliver). `d_max_used_m`: the
+/// longest crust pruning length used so far, raised to this ring's.
+Ring2d trace_ring(const OutlineContext& ctx, const layer::RingPixels& pixels, bool hole,
+                  OutlineCounts& counts, double& d_max_used_m) {
+  const RingGeometry g = ring_geometry(pixels, ctx.mask, ctx.to_layer, ctx.cloud, ctx.plane, ctx.band,
+                                       ctx.T_layer_camera, ctx.plane_params, ctx.fx_px,
+                                       ctx.layer_params.unobserved_gap_m);
+  counts.samples += g.samples.size();
+  counts.unobserved += g.unobserved;
+  const double d_max =
+      ctx.contour_params.d_max_m > 0.0 ? ctx.contour_params.d_max_m : kCrustDMax_pitches * g.pitch_m;
+  d_max_used_m = std::max(d_max_used_m, d_max);
+  const std::vector<Eigen::Vector2d> crust = crust_of(g, pixels, d_max, ctx.trace);
+  Ring2d ring = layer::simplify_ring(crust, g.samples, g.pitch_m, ctx.contour_params, &g.sample_origins);
+  if (ring.size() < 3) ring = crust;
+  if (ring.size() < 3 || std::abs(signed_area(ring)) < kMinRingArea_px * g.pitch_m * g.pitch_m) return {};
+  const double a = signed_area(ring);
+  if ((a < 0.0) != hole) std::reverse(ring.begin(), ring.end());
+  return ring;
+}
+
+/// Stage 5 for every kept component: its outer ring, then its holes. A component whose outer
+/// ring is no outline is left out, and so is a hole that is none.
+void trace_polygons(const OutlineContext& ctx, const std::vector<layer::Component>& components,
+                    LayerResult& result, OutlineCounts& counts) {
+  for (const layer::Component& comp : components) {
+    PolygonWithHoles poly;
+    poly.outer = trace_ring(ctx, comp.outer, false, counts, result.diagnostics.d_max_m);
+    if (poly.outer.size() < 3) continue;
+    for (const layer::RingPixels& hole : comp.holes) {
+      Ring2d ring = trace_ring(ctx, hole, true, counts, result.diagnostics.d_max_m);
+      if (ring.size() >= 3) poly.holes.push_back(std::move(ring));
+    }
+    result.polygons.push_back(std::move(poly));
+  }
+}
+
+/// The outcome of a traced layer: ok, unless its outline runs along pixels without depth for
+/// more than max_unobserved_outline_fraction and reject_unobserved is set. The reason notes an
+/// outline clipped by the image border or running along pixels without depth.
+LayerResult judge_outline(LayerResult result, const OutlineCounts& counts, bool touches_image_border,
+                          const LayerParams& layer_params) {
+  LayerDiagnostics& diag = result.diagnostics;
+  diag.unobserved_outline_fraction =
+      counts.samples > 0 ? static_cast<double>(counts.unobserved) / static_cast<double>(counts.samples) : 0.0;
+  diag.outline_along_invalid = diag.unobserved_outline_fraction > layer_params.max_unobserved_outline_fraction;
+  std::ostringstream unobserved;
+  if (diag.outline_along_invalid) {
+    unobserved << "the layer's outline runs along pixels without depth for "
+               << std::lround(100.0 * diag.unobserved_outline_fraction)
+               << " % of its length; the layer may go on unseen there";
+  }
+  if (diag.outline_along_invalid && layer_params.reject_unobserved) {
+    return fail(std::move(result), DetectionStatus::no_layer, unobserved.str());
+  }
+  result.status = DetectionStatus::ok;
+  if (touches_image_border) result.reason = "the layer touches the image border; its outline is clipped there";
+  if (diag.outline_along_invalid) result.reason += (result.reason.empty() ? "" : "; ") + unobserved.str();
+  return result;
+}
+
 }  // namespace
 
 LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const PlaneParams& plane_params,
@@ -124,24 +292,10 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   LayerResult result;
   const auto t_start = Clock::now();
   const Intrinsics& K = frame.intrinsics;
-  if (!K.valid() || cloud.width != K.width || cloud.height != K.height ||
-      cloud.points.size() != static_cast<std::size_t>(cloud.width) * static_cast<std::size_t>(cloud.height)) {
-    return fail(result, DetectionStatus::bad_frame, "frame intrinsics and organized cloud do not match");
-  }
-  std::size_t finite = 0, usable = 0;
-  for (const Eigen::Vector3f& p : cloud.points) {
-    if (!p.allFinite()) continue;
-    ++finite;
-    if (layer::usable(p, plane_params)) ++usable;
-  }
+  std::size_t usable = 0;
+  const std::optional<std::string> bad_frame = frame_problem(K, cloud, plane_params, usable);
   result.diagnostics.valid_points = usable;
-  if (finite == 0) return fail(result, DetectionStatus::bad_frame, "every pixel of the frame is invalid");
-  if (usable * 2 < finite) {
-    std::ostringstream s;
-    s << "most depths are outside [" << plane_params.min_depth_m << ", " << plane_params.max_depth_m
-      << "] m (" << (finite - usable) << " of " << finite << " pixels)";
-    return fail(result, DetectionStatus::bad_frame, s.str());
-  }
+  if (bad_frame) return fail(result, DetectionStatus::bad_frame, *bad_frame);
 
   // Stage 1: top plane.
   const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params, usable);
@@ -158,7 +312,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   const layer::BandTable band(top.noise, layer_params.passthrough_tolerance_m);
   result.diagnostics.passthrough_tolerance_m = band.max_m();
 
-  // Stages 3-4: mask, border, components.
+  // Stages 3-4: mask, border, components; the layer's points.
   layer::LayerMask lm = layer::layer_mask(cloud, top.plane, band, plane_params);
   result.diagnostics.filled_dropouts = lm.filled_dropouts;
   result.diagnostics.touches_image_border = lm.touches_image_border;
@@ -166,39 +320,14 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
     result.diagnostics.t_layer_ms = ms_since(t_layer);
     return fail(result, DetectionStatus::no_layer, "no layer pixels left after cleaning the plane's mask");
   }
-  layer::Components comps = layer::find_components(lm.mask, lm.border, cloud, top.plane, K, min_component_area_m2,
-                                                   layer_params.min_hole_area_px);
+  const layer::Components comps = layer::find_components(
+      lm.mask, lm.border, cloud, top.plane, K, min_component_area_m2, layer_params.min_hole_area_px);
   result.diagnostics.components = comps.kept.size();
   result.diagnostics.dropped_components = comps.dropped;
   result.diagnostics.border_points = static_cast<std::size_t>(cv::countNonZero(lm.border));
-
   const Eigen::Isometry3d T_layer_camera = result.T_camera_layer.inverse();
-  const Eigen::Matrix3f R = T_layer_camera.linear().cast<float>();
-  const Eigen::Vector3f t = T_layer_camera.translation().cast<float>();
-  const auto n_layer = static_cast<std::size_t>(cv::countNonZero(lm.mask));
-  result.points_2d.reserve(n_layer);
-  result.point_pixels.reserve(n_layer);
-  for (int v = 0; v < lm.mask.rows; ++v) {
-    const auto* m = lm.mask.ptr<std::uint8_t>(v);
-    for (int u = 0; u < lm.mask.cols; ++u) {
-      if (m[u] == 0) continue;
-      const Eigen::Vector3f& p = cloud.at(u, v);
-      if (!layer::usable(p, plane_params)) continue;
-      result.points_2d.push_back((R * p + t).head<2>());
-      result.point_pixels.push_back(v * lm.mask.cols + u);
-    }
-  }
-  result.diagnostics.layer_points = result.points_2d.size();
-  if (trace) {
-    trace->width = lm.mask.cols;
-    trace->height = lm.mask.rows;
-    trace->layer_mask.assign(lm.mask.datastart, lm.mask.dataend);
-    for (auto& m : trace->layer_mask) m = m != 0 ? 1 : 0;
-    trace->border_pixels.clear();
-    for (int v = 0; v < lm.border.rows; ++v)
-      for (int u = 0; u < lm.border.cols; ++u)
-        if (lm.border.at<std::uint8_t>(v, u) != 0) trace->border_pixels.push_back(v * lm.border.cols + u);
-  }
+  collect_layer_points(lm.mask, cloud, T_layer_camera, plane_params, result);
+  if (trace) record_mask(lm, *trace);
   result.diagnostics.t_layer_ms = ms_since(t_layer);
   if (comps.kept.empty()) {
     std::ostringstream s;
@@ -211,58 +340,13 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   // Stage 5: crust and polygons.
   const auto t_contour = Clock::now();
   const layer::PixelToLayer to_layer(K, top.plane, result.T_camera_layer);
-  std::size_t outline_samples = 0, unobserved_samples = 0;
-  auto build_ring = [&](const layer::RingPixels& pixels, bool hole) -> Ring2d {
-    const RingGeometry g = ring_geometry(pixels, lm.mask, to_layer, cloud, top.plane, band, T_layer_camera, plane_params,
-                                         K.fx, layer_params.unobserved_gap_m);
-    outline_samples += g.samples.size();
-    unobserved_samples += g.unobserved;
-    const double d_max = contour_params.d_max_m > 0.0 ? contour_params.d_max_m : 2.0 * g.pitch_m;
-    result.diagnostics.d_max_m = std::max(result.diagnostics.d_max_m, d_max);
-    std::vector<std::pair<int, int>> edges;
-    const std::vector<int> order = layer::crust_ring(g.points, pixels.chain, d_max, trace ? &edges : nullptr);
-    std::vector<Eigen::Vector2d> crust;
-    crust.reserve(order.size());
-    for (const int i : order) crust.push_back(g.points[static_cast<std::size_t>(i)]);
-    if (trace) {
-      for (const auto& [a, b] : edges)
-        trace->crust_edges.emplace_back(g.points[static_cast<std::size_t>(a)], g.points[static_cast<std::size_t>(b)]);
-      trace->crust_rings.push_back(crust);
-    }
-    Ring2d ring = layer::simplify_ring(crust, g.samples, g.pitch_m, contour_params, &g.sample_origins);
-    if (ring.size() < 3) ring = crust;
-    // A ring enclosing less than two pixel footprints is no outline (e.g. a collapsed sliver).
-    if (ring.size() < 3 || std::abs(signed_area(ring)) < 2.0 * g.pitch_m * g.pitch_m) return {};
-    const double a = signed_area(ring);
-    if ((a < 0.0) != hole) std::reverse(ring.begin(), ring.end());
-    return ring;
-  };
-  for (const layer::Component& comp : comps.kept) {
-    PolygonWithHoles poly;
-    poly.outer = build_ring(comp.outer, false);
-    if (poly.outer.size() < 3) continue;
-    for (const layer::RingPixels& hole : comp.holes) {
-      Ring2d ring = build_ring(hole, true);
-      if (ring.size() >= 3) poly.holes.push_back(std::move(ring));
-    }
-    result.polygons.push_back(std::move(poly));
-  }
+  const OutlineContext ctx{lm.mask,      to_layer, cloud,        top.plane,      band, T_layer_camera,
+                           plane_params, K.fx,     layer_params, contour_params, trace};
+  OutlineCounts counts;
+  trace_polygons(ctx, comps.kept, result, counts);
   result.diagnostics.t_contour_ms = ms_since(t_contour);
   if (result.polygons.empty()) return fail(result, DetectionStatus::no_layer, "no closed outline could be traced");
-  LayerDiagnostics& diag = result.diagnostics;
-  diag.unobserved_outline_fraction =
-      outline_samples > 0 ? static_cast<double>(unobserved_samples) / static_cast<double>(outline_samples) : 0.0;
-  diag.outline_along_invalid = diag.unobserved_outline_fraction > layer_params.max_unobserved_outline_fraction;
-  std::ostringstream unobserved;
-  if (diag.outline_along_invalid)
-    unobserved << "the layer's outline runs along pixels without depth for " << std::lround(100.0 * diag.unobserved_outline_fraction)
-               << " % of its length; the layer may go on unseen there";
-  if (diag.outline_along_invalid && layer_params.reject_unobserved)
-    return fail(result, DetectionStatus::no_layer, unobserved.str());
-  result.status = DetectionStatus::ok;
-  if (lm.touches_image_border) result.reason = "the layer touches the image border; its outline is clipped there";
-  if (diag.outline_along_invalid) result.reason += (result.reason.empty() ? "" : "; ") + unobserved.str();
-  return result;
+  return judge_outline(std::move(result), counts, lm.touches_image_border, layer_params);
 }
 
 }  // namespace palletd

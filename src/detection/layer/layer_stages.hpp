@@ -163,6 +163,25 @@ class PixelToLayer {
 std::vector<int> crust_ring(const std::vector<Eigen::Vector2d>& points, const std::vector<int>& chain,
                             double d_max_m, std::vector<std::pair<int, int>>* kept_edges);
 
+/// One edge of a ring being simplified: the line through `point` along `dir`, fitted to `samples`
+/// once `fitted`; `length` is the length of the polygon edge it stands for [m].
+struct FittedLine {
+  Eigen::Vector2d point = Eigen::Vector2d::Zero();
+  Eigen::Vector2d dir = Eigen::Vector2d::UnitX();  ///< unit
+  std::vector<Eigen::Vector2d> samples;
+  double length = 0.0;
+  bool fitted = false;
+};
+
+/// Total least squares line through the samples (a line with fewer than 3 is left as it is);
+/// keeps the sign of `line.dir`.
+void fit_line(FittedLine& line);
+
+/// One rectangle through the samples, when they show one (its sides fitted with one common
+/// direction, nearly every sample near its outline, its corners near the samples' hull);
+/// counter-clockwise. False keeps the ring's own polygon.
+bool fit_rectangle(const std::vector<Eigen::Vector2d>& samples, double pitch_m, Ring2d& rect);
+
 /// Simplifies an ordered ring to a polygon: corner candidates by Douglas-Peucker, one line fitted
 /// per edge to the edge samples (midpoints between layer and off-layer pixels), near-grid edges
 /// snapped to the ring's dominant direction, near-parallel neighbours merged, corners from

@@ -17,6 +17,28 @@ namespace palletd::layer {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+/// Points RANSAC searches when PlaneParams::ransac_stride_px is 0 (about).
+constexpr double kRansacPoints = 2500.0;
+/// Fewest subsampled points worth a plane search.
+constexpr std::size_t kMinRansacPoints = 50;
+/// Fewest second differences of depth that give a noise estimate for the RANSAC band.
+constexpr std::size_t kMinNoiseSamples = 50;
+/// Fewest points left worth another RANSAC round.
+constexpr std::size_t kMinRoundPoints = 30;
+/// RANSAC's wanted probability of drawing one sample of inliers only.
+constexpr double kRansacProbability = 0.99;
+/// Robust sigma from a median absolute deviation (normal noise).
+constexpr double kMadToSigma = 1.4826;
+/// Inlier bands are this many sigmas of the depth noise wide.
+constexpr double kBandSigmas = 3.0;
+/// Widest RANSAC band: a quarter of the step to a layer below [m].
+constexpr double kMaxRansacBand_m = 0.25 * kMinLayerStep;
+/// Narrowest band of the refits after the first [m].
+constexpr double kMinRefitBand_m = 0.003;
+/// Refits at the depth noise after the first; all but the last on a coarser pixel grid.
+constexpr int kRefits = 3;
+constexpr int kCoarseStride_px = 4;
+constexpr int kFineStride_px = 2;
 
 struct PlaneFit {
   bool ok = false;
@@ -119,6 +141,171 @@ DepthNoise depth_noise(const OrganizedCloud& cloud, const Plane& plane, const Pl
   return out;
 }
 
+// ---- find_top_plane's phases --------------------------------------------------------------------
+
+/// The subsampled cloud RANSAC searches, and its inlier band.
+struct RansacInput {
+  pcl::PointCloud<pcl::PointXYZ>::Ptr points;  ///< every stride_px-th usable pixel in u and v
+  int stride_px = 1;
+  double band_m = 0.0;  ///< RANSAC inlier band [m]
+};
+
+/// The nearest plane facing the camera with enough area, as the RANSAC rounds found it.
+struct PlaneSearch {
+  bool found = false;
+  Plane best;
+  double largest_small_area_m2 = 0.0;  ///< largest plane seen with too little area [m^2]
+  std::size_t candidates = 0;          ///< planes with enough area seen on the way
+};
+
+/// RANSAC stride: the configured one, or (0) one that leaves about kRansacPoints points.
+int ransac_stride_px(const PlaneParams& params, std::size_t valid_points) {
+  if (params.ransac_stride_px > 0) return params.ransac_stride_px;
+  return std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(valid_points) / kRansacPoints))));
+}
+
+/// RANSAC inlier band: kBandSigmas sigma of the depth noise (sigma = 1.4826 MAD / sqrt(6) of the
+/// second differences; reorders `second_diff`), at least the configured distance, at most
+/// kMaxRansacBand_m (a wider band lets a tilted plane collect points of two layers; the refit
+/// widens the band per depth afterwards). The configured distance with too few differences.
+double ransac_band_m(std::vector<float>& second_diff, const PlaneParams& params) {
+  double ransac_band = params.ransac_distance_m;
+  if (second_diff.size() >= kMinNoiseSamples) {
+    auto mid = second_diff.begin() + static_cast<std::ptrdiff_t>(second_diff.size() / 2);
+    std::nth_element(second_diff.begin(), mid, second_diff.end());
+    const double sigma = kMadToSigma * static_cast<double>(*mid) / std::sqrt(6.0);
+    ransac_band = std::clamp(kBandSigmas * sigma, params.ransac_distance_m,
+                             std::max(kMaxRansacBand_m, params.ransac_distance_m));
+  }
+  return ransac_band;
+}
+
+/// The points RANSAC searches and its band. The depth noise before any plane is known: second
+/// differences of depth along image rows at the sampled pixels (a smooth surface has none; depth
+/// edges are outliers of the median).
+RansacInput ransac_input(const OrganizedCloud& cloud, const PlaneParams& params, std::size_t valid_points) {
+  RansacInput in;
+  in.stride_px = ransac_stride_px(params, valid_points);
+  const int stride = in.stride_px;
+  in.points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  in.points->reserve(cloud.points.size() / static_cast<std::size_t>(stride * stride) + 1);
+  std::vector<float> second_diff;
+  second_diff.reserve(cloud.points.size() / static_cast<std::size_t>(stride * stride) + 1);
+  for (int v = stride / 2; v < cloud.height; v += stride) {
+    for (int u = stride / 2; u < cloud.width; u += stride) {
+      const Eigen::Vector3f& p = cloud.at(u, v);
+      if (!usable(p, params)) continue;
+      in.points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+      if (u < 1 || u + 1 >= cloud.width) continue;
+      const Eigen::Vector3f& a = cloud.at(u - 1, v);
+      const Eigen::Vector3f& b = cloud.at(u + 1, v);
+      if (usable(a, params) && usable(b, params)) second_diff.push_back(std::abs(a.z() - 2.0F * p.z() + b.z()));
+    }
+  }
+  in.band_m = ransac_band_m(second_diff, params);
+  return in;
+}
+
+/// One seeded RANSAC round on the remaining points for a plane whose normal lies within
+/// max_tilt_deg of the view axis: the plane (unit normal toward the camera) and its inliers;
+/// false when there is none.
+bool ransac_round(const RansacInput& in, const pcl::Indices& remaining, std::uint32_t seed,
+                  const PlaneParams& params, Plane& plane, pcl::Indices& inliers) {
+  auto model = pcl::make_shared<SeededPlaneModel>(in.points, remaining, seed);
+  model->setAxis(Eigen::Vector3f(0.0F, 0.0F, 1.0F));
+  model->setEpsAngle(params.max_tilt_deg * kPi / 180.0);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, in.band_m);
+  ransac.setMaxIterations(params.ransac_max_iterations);
+  ransac.setProbability(kRansacProbability);
+  if (!ransac.computeModel()) return false;
+  ransac.getInliers(inliers);
+  Eigen::VectorXf coeff;
+  ransac.getModelCoefficients(coeff);
+  if (inliers.size() < 3 || coeff.size() < 4) return false;
+  plane.normal = coeff.head<3>().cast<double>();
+  const double norm = plane.normal.norm();
+  if (norm < 1e-9) return false;
+  plane.normal /= norm;
+  plane.d = static_cast<double>(coeff(3)) / norm;
+  if (plane.d < 0.0) {  // normal toward the camera (origin on the positive side)
+    plane.normal = -plane.normal;
+    plane.d = -plane.d;
+  }
+  return true;
+}
+
+/// The area the inliers cover on the plane: each stands for stride_px^2 pixels [m^2].
+double inlier_area_m2(const RansacInput& in, const pcl::Indices& inliers, const Plane& plane,
+                      const Intrinsics& intrinsics) {
+  double area = 0.0;
+  for (const int i : inliers) {
+    const pcl::PointXYZ& q = (*in.points)[static_cast<std::size_t>(i)];
+    area += pixel_area_m2(static_cast<double>(q.z), plane.d, intrinsics);
+  }
+  area *= static_cast<double>(in.stride_px * in.stride_px);
+  return area;
+}
+
+/// Up to max_planes RANSAC rounds, each on the points the rounds before left: a plane with enough
+/// area nearer than the best so far becomes the best, and only the points beyond its band on the
+/// camera side (a higher layer) are left; any other plane leaves all but its inliers.
+PlaneSearch search_planes(const RansacInput& in, const Intrinsics& intrinsics, const PlaneParams& params) {
+  const pcl::PointCloud<pcl::PointXYZ>& sub = *in.points;
+  pcl::Indices remaining(sub.size());
+  for (std::size_t i = 0; i < remaining.size(); ++i) remaining[i] = static_cast<int>(i);
+  PlaneSearch search;
+  for (int round = 0; round < params.max_planes && remaining.size() >= kMinRoundPoints; ++round) {
+    Plane plane;
+    pcl::Indices inliers;
+    const std::uint32_t seed = params.seed + static_cast<std::uint32_t>(round);
+    if (!ransac_round(in, remaining, seed, params, plane, inliers)) break;
+    const double area = inlier_area_m2(in, inliers, plane, intrinsics);
+    pcl::Indices next;
+    next.reserve(remaining.size());
+    if (area >= params.min_plane_area_m2 && (!search.found || plane.d < search.best.d)) {
+      search.found = true;
+      search.best = plane;
+      ++search.candidates;
+      // A higher layer lies strictly on the camera side of this one: keep only those points.
+      for (const int i : remaining) {
+        const pcl::PointXYZ& q = sub[static_cast<std::size_t>(i)];
+        const double s = plane.normal.dot(Eigen::Vector3d(q.x, q.y, q.z)) + plane.d;
+        if (s > in.band_m) next.push_back(i);
+      }
+    } else {
+      search.largest_small_area_m2 = std::max(search.largest_small_area_m2, area);
+      std::vector<char> is_inlier(sub.size(), 0);
+      for (const int i : inliers) is_inlier[static_cast<std::size_t>(i)] = 1;
+      for (const int i : remaining)
+        if (!is_inlier[static_cast<std::size_t>(i)]) next.push_back(i);
+    }
+    remaining.swap(next);
+  }
+  return search;
+}
+
+/// Least-squares refit of the RANSAC plane, first within the RANSAC band; then kRefits times
+/// within kBandSigmas robust sigmas at each point's depth (the residuals' median absolute
+/// deviation per depth bin, so quantised, noisy or far sensors get a wide band where they need
+/// it). The fits before the last use every kCoarseStride_px-th pixel, the last every
+/// kFineStride_px-th (>= 10^4 points on a layer of a few boxes at VGA: sub-millimetre for the
+/// plane's height). Stops at the first refit that fails, keeping the fit before it. `noise`: the
+/// depth noise of the last refit tried.
+PlaneFit refine_plane(const OrganizedCloud& cloud, const Plane& plane, double ransac_band,
+                      const PlaneParams& params, DepthNoise& noise) {
+  noise = DepthNoise{};
+  noise.sigma_all_m = ransac_band / kBandSigmas;
+  PlaneFit fit = refit(cloud, plane, noise, kBandSigmas, ransac_band, params, kCoarseStride_px);
+  for (int k = 0; k < kRefits && fit.ok; ++k) {
+    noise = depth_noise(cloud, fit.plane, params);
+    const int stride_px = k == kRefits - 1 ? kFineStride_px : kCoarseStride_px;
+    const PlaneFit next = refit(cloud, fit.plane, noise, kBandSigmas, kMinRefitBand_m, params, stride_px);
+    if (!next.ok) break;
+    fit = next;
+  }
+  return fit;
+}
+
 }  // namespace
 
 double DepthNoise::sigma_at(double z_m) const {
@@ -172,121 +359,25 @@ TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsic
   if (usable_points == 0)
     for (const Eigen::Vector3f& p : cloud.points)
       if (usable(p, params)) ++result.valid_points;
-  // Stride: the configured one, or (0) about 2500 points for RANSAC.
-  const int stride = params.ransac_stride_px > 0
-                         ? params.ransac_stride_px
-                         : std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(result.valid_points) / 2500.0))));
-  auto sub = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  sub->reserve(cloud.points.size() / static_cast<std::size_t>(stride * stride) + 1);
-  // Depth noise before any plane is known: second differences of depth along image rows at the
-  // sampled pixels (a smooth surface has none; depth edges are outliers of the median).
-  std::vector<float> second_diff;
-  second_diff.reserve(cloud.points.size() / static_cast<std::size_t>(stride * stride) + 1);
-  for (int v = stride / 2; v < cloud.height; v += stride) {
-    for (int u = stride / 2; u < cloud.width; u += stride) {
-      const Eigen::Vector3f& p = cloud.at(u, v);
-      if (!usable(p, params)) continue;
-      sub->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
-      if (u < 1 || u + 1 >= cloud.width) continue;
-      const Eigen::Vector3f& a = cloud.at(u - 1, v);
-      const Eigen::Vector3f& b = cloud.at(u + 1, v);
-      if (usable(a, params) && usable(b, params)) second_diff.push_back(std::abs(a.z() - 2.0F * p.z() + b.z()));
-    }
-  }
-  // RANSAC inlier band: 3 sigma of that noise (sigma = 1.4826 MAD / sqrt(6)), at least the
-  // configured distance, at most a quarter of the step to a layer below (a wider band lets a
-  // tilted plane collect points of two layers; the refit widens the band per depth afterwards).
-  double ransac_band = params.ransac_distance_m;
-  if (second_diff.size() >= 50) {
-    auto mid = second_diff.begin() + static_cast<std::ptrdiff_t>(second_diff.size() / 2);
-    std::nth_element(second_diff.begin(), mid, second_diff.end());
-    const double sigma = 1.4826 * static_cast<double>(*mid) / std::sqrt(6.0);
-    ransac_band = std::clamp(3.0 * sigma, params.ransac_distance_m, std::max(0.25 * kMinLayerStep, params.ransac_distance_m));
-  }
-  if (sub->size() < 50) {
-    result.reason = "too few valid points for a plane search (" + std::to_string(sub->size()) +
+  const RansacInput in = ransac_input(cloud, params, result.valid_points);
+  if (in.points->size() < kMinRansacPoints) {
+    result.reason = "too few valid points for a plane search (" + std::to_string(in.points->size()) +
                     " after subsampling)";
     return result;
   }
-  const double area_per_point_scale = static_cast<double>(stride * stride);
 
-  pcl::Indices remaining(sub->size());
-  for (std::size_t i = 0; i < remaining.size(); ++i) remaining[i] = static_cast<int>(i);
-
-  bool have_best = false;
-  Plane best;
-  double largest_small_area = 0.0;
-  for (int round = 0; round < params.max_planes && remaining.size() >= 30; ++round) {
-    auto model = pcl::make_shared<SeededPlaneModel>(sub, remaining, params.seed + static_cast<std::uint32_t>(round));
-    model->setAxis(Eigen::Vector3f(0.0F, 0.0F, 1.0F));
-    model->setEpsAngle(params.max_tilt_deg * kPi / 180.0);
-    pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, ransac_band);
-    ransac.setMaxIterations(params.ransac_max_iterations);
-    ransac.setProbability(0.99);
-    if (!ransac.computeModel()) break;
-    pcl::Indices inliers;
-    ransac.getInliers(inliers);
-    Eigen::VectorXf coeff;
-    ransac.getModelCoefficients(coeff);
-    if (inliers.size() < 3 || coeff.size() < 4) break;
-    Plane plane;
-    plane.normal = coeff.head<3>().cast<double>();
-    const double norm = plane.normal.norm();
-    if (norm < 1e-9) break;
-    plane.normal /= norm;
-    plane.d = static_cast<double>(coeff(3)) / norm;
-    if (plane.d < 0.0) {  // normal toward the camera (origin on the positive side)
-      plane.normal = -plane.normal;
-      plane.d = -plane.d;
-    }
-    double area = 0.0;
-    for (const int i : inliers)
-      area += pixel_area_m2(static_cast<double>((*sub)[static_cast<std::size_t>(i)].z), plane.d, intrinsics);
-    area *= area_per_point_scale;
-
-    pcl::Indices next;
-    next.reserve(remaining.size());
-    if (area >= params.min_plane_area_m2 && (!have_best || plane.d < best.d)) {
-      have_best = true;
-      best = plane;
-      ++result.candidates;
-      // A higher layer lies strictly on the camera side of this one: keep only those points.
-      for (const int i : remaining) {
-        const pcl::PointXYZ& q = (*sub)[static_cast<std::size_t>(i)];
-        const double s = plane.normal.dot(Eigen::Vector3d(q.x, q.y, q.z)) + plane.d;
-        if (s > ransac_band) next.push_back(i);
-      }
-    } else {
-      largest_small_area = std::max(largest_small_area, area);
-      std::vector<char> is_inlier(sub->size(), 0);
-      for (const int i : inliers) is_inlier[static_cast<std::size_t>(i)] = 1;
-      for (const int i : remaining)
-        if (!is_inlier[static_cast<std::size_t>(i)]) next.push_back(i);
-    }
-    remaining.swap(next);
-  }
-  if (!have_best) {
-    result.reason = largest_small_area > 0.0
+  const PlaneSearch search = search_planes(in, intrinsics, params);
+  result.candidates = search.candidates;
+  if (!search.found) {
+    result.reason = search.largest_small_area_m2 > 0.0
                         ? "no plane facing the camera is large enough (largest " +
-                              std::to_string(largest_small_area) + " m^2)"
+                              std::to_string(search.largest_small_area_m2) + " m^2)"
                         : "no plane facing the camera found";
     return result;
   }
 
-  // Refit on full-resolution inliers; then, a few times, a band of 3 robust sigmas at each
-  // point's depth (median absolute residual near the plane per depth bin, so quantised, noisy or
-  // far sensors get a wide band where they need it). Intermediate fits on every 4th pixel, the
-  // last one on every 2nd (>= 10^4 points on a layer of a few boxes at VGA: sub-millimetre for
-  // the plane's height).
   DepthNoise noise;
-  noise.sigma_all_m = ransac_band / 3.0;
-  PlaneFit fit = refit(cloud, best, noise, 3.0, ransac_band, params, 4);
-  for (int k = 0; k < 3 && fit.ok; ++k) {
-    noise = depth_noise(cloud, fit.plane, params);
-    const PlaneFit next = refit(cloud, fit.plane, noise, 3.0, 0.003, params, k == 2 ? 2 : 4);
-    if (!next.ok) break;
-    fit = next;
-  }
+  const PlaneFit fit = refine_plane(cloud, search.best, in.band_m, params, noise);
   if (!fit.ok) {
     result.reason = "plane refit failed";
     return result;

@@ -19,10 +19,8 @@ constexpr double kNullSigmaFloor = 0.02;  ///< smallest noise of a piece's contr
 constexpr double kPieceCap = 3.0;
 /// Cap of a piece's evidence against a seam [nats]: a seam that is there shows (a gap, the dip
 /// of two bevelled edges, a dark line in the intensity), but one that does not show may be a gap
-/// pressed shut, so a missing seam weighs at most half of a clear one. Measured on the generated sets
-/// (docs/benchmarks.md, session 6): 0.5 turns an outline-tied layout picked wrong by missing
-/// seams into a flagged one and changes nothing else; 0.3 flags one more wrong one but five
-/// right ones too.
+/// pressed shut, so a missing seam weighs at most half of a clear one (the measurement behind
+/// the half is in the history of this line).
 constexpr double kMissingSeamCap = 0.5 * kPieceCap;
 
 double median_of(std::vector<double> v) {

@@ -15,6 +15,26 @@ namespace palletd {
 
 namespace {
 
+/// Raster cell: the layer's pixel pitch within these bounds, unless SeamParams::cell_m sets it [m].
+constexpr double kMinCell_m = 0.001;
+constexpr double kMaxCell_m = 0.01;
+/// The raster covers the layer's outer rings grown by this on each side [m].
+constexpr double kRasterMargin_m = 0.02;
+/// Fixed-point vertices for cv::fillPoly: this many fraction bits.
+constexpr int kFillShift = 4;
+constexpr double kFillScale = static_cast<double>(1 << kFillShift);
+/// Cells within this many of the outline are left out: they mix box tops with the floor around.
+constexpr int kOutlineClearance_cells = 2;
+/// Fewest residuals (or intensity differences) for a robust noise estimate.
+constexpr std::size_t kMinNoiseSamples = 20;
+/// Robust sigma from a median absolute deviation (normal noise).
+constexpr double kMadToSigma = 1.4826;
+/// Smallest intensity noise [intensity counts]: keeps noise-free (synthetic) intensity from
+/// dividing by zero.
+constexpr double kMinIntensitySigma = 1.0;
+/// A cell whose mean seam-likeness exceeds this counts as seam-like in SeamEvidence::strength.
+constexpr float kSeamLike = 0.5f;
+
 double median_abs_deviation(std::vector<double> v) {
   if (v.empty()) return 0.0;
   const auto mid = v.begin() + static_cast<long>(v.size() / 2);
@@ -74,60 +94,59 @@ bool bright_dropout(const std::vector<std::uint16_t>& inten, const OrganizedClou
   return own >= kBrightDropout * *mid;
 }
 
-}  // namespace
-
-SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud,
-                                 const LayerResult& layer, const SeamParams& params) {
-  SeamEvidence ev;
-  const Intrinsics& in = frame.intrinsics;
-  if (layer.status != DetectionStatus::ok || layer.polygons.empty() || !in.valid() ||
-      cloud.width != in.width || cloud.height != in.height ||
-      cloud.points.size() != frame.pixel_count()) {
-    return ev;
+/// A ring's vertices in fillPoly's fixed point on the raster (cell centres at index + 0.5).
+std::vector<cv::Point> raster_points(const Ring2d& ring, const SeamEvidence& ev) {
+  std::vector<cv::Point> pts;
+  for (const auto& p : ring) {
+    pts.emplace_back(
+        static_cast<int>(std::lround((p.x() - ev.origin_m.x()) / ev.cell_m * kFillScale - 0.5 * kFillScale)),
+        static_cast<int>(std::lround((p.y() - ev.origin_m.y()) / ev.cell_m * kFillScale - 0.5 * kFillScale)));
   }
-  const Plane& plane = layer.plane_camera;
-  const double pitch = layout_detail::layer_pixel_pitch_m(in, layer);
-  const auto geo = layout_detail::layer_raster_geometry(
-      in, layer, params.cell_m > 0 ? params.cell_m : std::clamp(pitch, 0.001, 0.01), 0.02);
-  if (!geo) return ev;
-  ev.cell_m = geo->cell_m;
-  ev.origin_m = geo->origin_m;
-  ev.width = geo->width;
-  ev.height = geo->height;
-  const auto W = static_cast<std::size_t>(ev.width);
-  // Only the inside of the outline counts: the outline itself is no seam.
-  std::vector<std::uint8_t> mask_cells(W * static_cast<std::size_t>(ev.height), 0);
+  return pts;
+}
+
+/// The cells inside the layer's outline (1, else 0), eroded by kOutlineClearance_cells: only the
+/// inside of the outline counts, the outline itself is no seam.
+std::vector<std::uint8_t> inside_cells(const LayerResult& layer, const SeamEvidence& ev) {
+  const std::size_t cells = static_cast<std::size_t>(ev.width) * static_cast<std::size_t>(ev.height);
+  std::vector<std::uint8_t> mask_cells(cells, 0);
   cv::Mat mask(ev.height, ev.width, CV_8U, mask_cells.data());  // a view of mask_cells
-  auto to_pts = [&](const Ring2d& ring) {
-    std::vector<cv::Point> pts;
-    for (const auto& p : ring) {
-      pts.emplace_back(static_cast<int>(std::lround((p.x() - ev.origin_m.x()) / ev.cell_m * 16.0 - 8.0)),
-                       static_cast<int>(std::lround((p.y() - ev.origin_m.y()) / ev.cell_m * 16.0 - 8.0)));
-    }
-    return pts;
-  };
   for (const auto& poly : layer.polygons) {
-    std::vector<std::vector<cv::Point>> outer{to_pts(poly.outer)};
-    cv::fillPoly(mask, outer, cv::Scalar(1), cv::LINE_8, 4);
+    std::vector<std::vector<cv::Point>> outer{raster_points(poly.outer, ev)};
+    cv::fillPoly(mask, outer, cv::Scalar(1), cv::LINE_8, kFillShift);
     std::vector<std::vector<cv::Point>> holes;
-    for (const auto& h : poly.holes) holes.push_back(to_pts(h));
-    if (!holes.empty()) cv::fillPoly(mask, holes, cv::Scalar(0), cv::LINE_8, 4);
+    for (const auto& h : poly.holes) holes.push_back(raster_points(h, ev));
+    if (!holes.empty()) cv::fillPoly(mask, holes, cv::Scalar(0), cv::LINE_8, kFillShift);
   }
-  // Cells on the outline mix box tops with the floor around: keep two cells clear of it.
-  layout_detail::erode_square(mask_cells, ev.width, ev.height, 2);
+  layout_detail::erode_square(mask_cells, ev.width, ev.height, kOutlineClearance_cells);
+  return mask_cells;
+}
 
-  // Pass 1: which pixels fall inside the layer, and the noise of depth and intensity there.
-  std::vector<int> cell_of(frame.pixel_count(), -1);
+/// The raster cell of each pixel (row-major), where its viewing ray meets the plane; -1 for a
+/// pixel whose ray misses the raster.
+std::vector<int> pixel_cells(const layout_detail::LayerRasterGeometry& geo, const Intrinsics& in,
+                             std::size_t pixel_count) {
+  std::vector<int> cell_of(pixel_count, -1);
   for (int v = 0; v < in.height; ++v) {
     for (int u = 0; u < in.width; ++u) {
       double fx = 0.0, fy = 0.0;
-      if (!geo->cell_of(u, v, &fx, &fy)) continue;
+      if (!geo.cell_of(u, v, &fx, &fy)) continue;
       const int cx = static_cast<int>(fx);
       const int cy = static_cast<int>(fy);
       cell_of[static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) + static_cast<std::size_t>(u)] =
-          cy * ev.width + cx;
+          cy * geo.width + cx;
     }
   }
+  return cell_of;
+}
+
+/// Depth below the plane where seams start [m]: max(depth_step_m, depth_noise_k x sigma), sigma
+/// the layer stage's plane residual when it reports one, else a robust estimate (MAD) of the
+/// residuals of the pixels inside the mask. A pixel is seam-like only when it lies clearly below
+/// the plane against that noise (seams, not noise, reach several sigma).
+double seam_depth_step_m(const OrganizedCloud& cloud, const Plane& plane, const std::vector<int>& cell_of,
+                         const std::vector<std::uint8_t>& mask_cells, const LayerResult& layer,
+                         const SeamParams& params) {
   std::vector<double> residuals;
   for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
     const int c = cell_of[pix];
@@ -135,64 +154,102 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
     const Eigen::Vector3f& p = cloud.points[pix];
     if (std::isfinite(p.x()) && std::isfinite(p.z())) residuals.push_back(plane.signed_distance(p.cast<double>()));
   }
-  // Depth noise: the layer stage's plane residual when it reports one, else a robust estimate
-  // (MAD) of the residuals on the layer. A pixel is seam-like only when it lies clearly below
-  // the plane against that noise (seams, not noise, reach several sigma).
   double sigma_m = layer.diagnostics.plane_sigma_m;
-  if (!(sigma_m > 0.0) && residuals.size() >= 20) sigma_m = 1.4826 * median_abs_deviation(residuals);
-  const double step = std::max(params.depth_step_m, params.depth_noise_k * (std::isfinite(sigma_m) ? sigma_m : 0.0));
-  ev.depth_threshold_m = step;
-
-  // Dark lines in the intensity image, against the intensity noise on the layer (from the MAD of
-  // neighbouring pixels' differences, which the tops' shading does not reach).
-  double intensity_sigma = 0.0;
-  if (frame.has_intensity() && params.intensity_weight > 0 && frame.intensity.size() == frame.pixel_count()) {
-    std::vector<double> diffs;
-    const auto width = static_cast<std::size_t>(in.width);
-    for (std::size_t pix = 0; pix + 1 < cell_of.size(); ++pix) {
-      const int c = cell_of[pix];
-      if (c < 0 || cell_of[pix + 1] < 0 || (pix + 1) % width == 0) continue;
-      if (mask_cells[static_cast<std::size_t>(c)] == 0) continue;
-      diffs.push_back(static_cast<double>(frame.intensity[pix + 1]) - static_cast<double>(frame.intensity[pix]));
-    }
-    if (diffs.size() >= 20) {
-      // A floor of one count keeps noise-free (synthetic) intensity from dividing by zero.
-      intensity_sigma = std::max(1.4826 * median_abs_deviation(std::move(diffs)) / std::sqrt(2.0), 1.0);
-    }
+  if (!(sigma_m > 0.0) && residuals.size() >= kMinNoiseSamples) {
+    sigma_m = kMadToSigma * median_abs_deviation(residuals);
   }
+  return std::max(params.depth_step_m, params.depth_noise_k * (std::isfinite(sigma_m) ? sigma_m : 0.0));
+}
 
-  std::vector<float> sum(W * static_cast<std::size_t>(ev.height), 0.f), count(sum.size(), 0.f);
-  const double g_lo = params.intensity_noise_k;
+/// The intensity noise on the layer [intensity counts], from the MAD of horizontally neighbouring
+/// pixels' differences inside the mask (the tops' shading does not reach them); 0 when the
+/// intensity is not used (none, weight 0, or too few differences).
+double intensity_noise(const Frame& frame, const std::vector<int>& cell_of,
+                       const std::vector<std::uint8_t>& mask_cells, const SeamParams& params) {
+  const bool use_intensity = frame.has_intensity() && params.intensity_weight > 0 &&
+                             frame.intensity.size() == frame.pixel_count();
+  if (!use_intensity) return 0.0;
+  std::vector<double> diffs;
+  const auto width = static_cast<std::size_t>(frame.intrinsics.width);
+  for (std::size_t pix = 0; pix + 1 < cell_of.size(); ++pix) {
+    const int c = cell_of[pix];
+    if (c < 0 || cell_of[pix + 1] < 0 || (pix + 1) % width == 0) continue;
+    if (mask_cells[static_cast<std::size_t>(c)] == 0) continue;
+    diffs.push_back(static_cast<double>(frame.intensity[pix + 1]) - static_cast<double>(frame.intensity[pix]));
+  }
+  if (diffs.size() < kMinNoiseSamples) return 0.0;
+  return std::max(kMadToSigma * median_abs_deviation(std::move(diffs)) / std::sqrt(2.0), kMinIntensitySigma);
+}
+
+/// What scoring a pixel's seam-likeness takes.
+struct PixelScoring {
+  const Frame& frame;
+  const OrganizedCloud& cloud;
+  const Plane& plane;
+  const SeamParams& params;
+  double step_m = 0.0;           ///< depth below the plane where seams start [m]
+  double intensity_sigma = 0.0;  ///< intensity noise [counts]; 0: intensity not used
+};
+
+/// How seam-like pixel `pix` (at u, v) looks, 0..1: its depth below the plane (from step_m on,
+/// fully at twice that), or without a measurement 1 (0 where it is a bright dropout); with the
+/// intensity, at least intensity_weight x its dark line's depth (from intensity_noise_k sigmas
+/// on, fully at twice that).
+float pixel_seam(const PixelScoring& ps, std::size_t pix, int u, int v) {
+  const Eigen::Vector3f& p = ps.cloud.points[pix];
+  float s;
+  if (!std::isfinite(p.x()) || !std::isfinite(p.z())) {
+    // No measurement: a gap or a dark edge, or a random dropout. The layout stage keeps only
+    // line-like runs of these along its axes (SeamTable), so scattered dropouts fade. Where
+    // the intensity shows the pixel as bright as the tops around it, it is no gap.
+    const bool bright = ps.intensity_sigma > 0 &&
+                        bright_dropout(ps.frame.intensity, ps.cloud, ps.plane, ps.step_m, u, v);
+    s = bright ? 0.f : 1.f;
+  } else {
+    const double below = -ps.plane.signed_distance(p.cast<double>());
+    s = static_cast<float>(std::clamp((below - ps.step_m) / ps.step_m, 0.0, 1.0));
+  }
+  if (ps.intensity_sigma > 0) {
+    const double g_lo = ps.params.intensity_noise_k;
+    const Intrinsics& in = ps.frame.intrinsics;
+    const double z = dark_line_depth(ps.frame.intensity, in.width, in.height, u, v) / ps.intensity_sigma;
+    s = std::max(s, static_cast<float>(ps.params.intensity_weight * std::clamp((z - g_lo) / g_lo, 0.0, 1.0)));
+  }
+  return s;
+}
+
+/// Seam-likeness summed per cell over the pixels that fall into it, and their count.
+struct CellSums {
+  std::vector<float> sum, count;
+};
+
+/// Each pixel's seam-likeness summed into the cell it falls into.
+CellSums sum_cells(const PixelScoring& ps, const std::vector<int>& cell_of, std::size_t cells) {
+  CellSums sums{std::vector<float>(cells, 0.f), std::vector<float>(cells, 0.f)};
+  const auto width = static_cast<std::size_t>(ps.frame.intrinsics.width);
   for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
     const int cell = cell_of[pix];
     if (cell < 0) continue;
-    const Eigen::Vector3f& p = cloud.points[pix];
-    const int u = static_cast<int>(pix % static_cast<std::size_t>(in.width));
-    const int v = static_cast<int>(pix / static_cast<std::size_t>(in.width));
-    float s;
-    if (!std::isfinite(p.x()) || !std::isfinite(p.z())) {
-      // No measurement: a gap or a dark edge, or a random dropout. The layout stage keeps only
-      // line-like runs of these along its axes (SeamTable), so scattered dropouts fade. Where
-      // the intensity shows the pixel as bright as the tops around it, it is no gap.
-      s = intensity_sigma > 0 && bright_dropout(frame.intensity, cloud, plane, step, u, v) ? 0.f : 1.f;
-    } else {
-      const double below = -plane.signed_distance(p.cast<double>());
-      s = static_cast<float>(std::clamp((below - step) / step, 0.0, 1.0));
-    }
-    if (intensity_sigma > 0) {
-      const double z = dark_line_depth(frame.intensity, in.width, in.height, u, v) / intensity_sigma;
-      s = std::max(s, static_cast<float>(params.intensity_weight * std::clamp((z - g_lo) / g_lo, 0.0, 1.0)));
-    }
+    const float s = pixel_seam(ps, pix, static_cast<int>(pix % width), static_cast<int>(pix / width));
     const auto c = static_cast<std::size_t>(cell);
-    sum[c] += s;
-    count[c] += 1.f;
+    sums.sum[c] += s;
+    sums.count[c] += 1.f;
   }
-  // Mean per cell; cells no pixel fell into take their neighbours' mean.
-  cv::Mat msum(ev.height, ev.width, CV_32F, sum.data()), mcount(ev.height, ev.width, CV_32F, count.data());
+  return sums;
+}
+
+/// ev.seam: the mean per cell inside the mask; cells no pixel fell into take their neighbours'
+/// mean (3 x 3). ev.strength: the share of the cells inside that look seam-like.
+void cell_means(CellSums& sums, const std::vector<std::uint8_t>& mask_cells, SeamEvidence& ev) {
+  const std::vector<float>& sum = sums.sum;
+  const std::vector<float>& count = sums.count;
+  cv::Mat msum(ev.height, ev.width, CV_32F, sums.sum.data());
+  cv::Mat mcount(ev.height, ev.width, CV_32F, sums.count.data());
   cv::Mat nsum, ncount;
   cv::boxFilter(msum, nsum, CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false);
   cv::boxFilter(mcount, ncount, CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false);
   ev.seam.assign(sum.size(), 0.f);
+  const auto W = static_cast<std::size_t>(ev.width);
   std::size_t inside = 0, seamy = 0;
   for (int y = 0; y < ev.height; ++y) {
     for (int x = 0; x < ev.width; ++x) {
@@ -206,10 +263,44 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
       }
       ev.seam[c] = s;
       ++inside;
-      if (s > 0.5f) ++seamy;
+      if (s > kSeamLike) ++seamy;
     }
   }
   ev.strength = inside > 0 ? static_cast<double>(seamy) / static_cast<double>(inside) : 0.0;
+}
+
+}  // namespace
+
+SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud,
+                                 const LayerResult& layer, const SeamParams& params) {
+  SeamEvidence ev;
+  const Intrinsics& in = frame.intrinsics;
+  if (layer.status != DetectionStatus::ok || layer.polygons.empty() || !in.valid() ||
+      cloud.width != in.width || cloud.height != in.height ||
+      cloud.points.size() != frame.pixel_count()) {
+    return ev;
+  }
+  const Plane& plane = layer.plane_camera;
+  const double pitch = layout_detail::layer_pixel_pitch_m(in, layer);
+  const double cell_m = params.cell_m > 0 ? params.cell_m : std::clamp(pitch, kMinCell_m, kMaxCell_m);
+  const auto geo = layout_detail::layer_raster_geometry(in, layer, cell_m, kRasterMargin_m);
+  if (!geo) return ev;
+  ev.cell_m = geo->cell_m;
+  ev.origin_m = geo->origin_m;
+  ev.width = geo->width;
+  ev.height = geo->height;
+  const std::vector<std::uint8_t> mask_cells = inside_cells(layer, ev);
+
+  // Pass 1: which pixels fall inside the layer, and the noise of depth and intensity there.
+  const std::vector<int> cell_of = pixel_cells(*geo, in, frame.pixel_count());
+  ev.depth_threshold_m = seam_depth_step_m(cloud, plane, cell_of, mask_cells, layer, params);
+  const double intensity_sigma = intensity_noise(frame, cell_of, mask_cells, params);
+
+  // Pass 2: each pixel's seam-likeness (depth below the plane, missing depth, a dark line in the
+  // intensity image), averaged per cell.
+  const PixelScoring scoring{frame, cloud, plane, params, ev.depth_threshold_m, intensity_sigma};
+  CellSums sums = sum_cells(scoring, cell_of, mask_cells.size());
+  cell_means(sums, mask_cells, ev);
   return ev;
 }
 

@@ -67,82 +67,99 @@ int find_line(const std::vector<double>& lines, double v, double tol) {
   return best;
 }
 
-bool ProductSearch::build(std::string* reason) {
-  double min_short = 1e9;
-  std::vector<double> dims;
-  for (std::size_t f = 0; f < formats_.size(); ++f) {
-    const auto& fm = formats_[f];
-    min_short = std::min(min_short, fm.short_m);
-    dims.push_back(fm.long_m);
-    dims.push_back(fm.short_m);
-    shapes_.push_back({fm.long_m, fm.short_m, static_cast<int>(f), true});
-    if (fm.long_m - fm.short_m > 1e-6) shapes_.push_back({fm.short_m, fm.long_m, static_cast<int>(f), false});
-  }
-  std::sort(dims.begin(), dims.end());
-  dims.erase(std::unique(dims.begin(), dims.end(), [](double a, double b) { return b - a < 1e-6; }),
-             dims.end());
-  min_box_area_ = 1e9;
-  for (const auto& fm : formats_) min_box_area_ = std::min(min_box_area_, fm.long_m * fm.short_m);
-  tol_ = line_merge_tol_m(params_, min_short);
-  const double min_edge = min_corner_edge_m(min_short);
-  const double axis_tol = 5.0 * M_PI / 180.0;
+namespace {
 
+constexpr double kNoSideYetM = 1e9;       ///< shortest box side before any format [m]
+constexpr double kNoAreaYetM2 = 1e9;      ///< smallest box area before any format [m^2]
+constexpr double kSameSideTolM = 1e-6;    ///< box sides closer than this are one side [m]
+constexpr double kAxisTolDeg = 5.0;       ///< edges this close to a layout axis seed lines [deg]
+constexpr std::size_t kBitsPerWord = 64;  ///< cells per occupancy word
+
+/// Bounding rectangle of a ring (x0 = y0 = 1e300, x1 = y1 = -1e300 when it is empty).
+Rect ring_bounds(const Ring2d& ring) {
   double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
-  for (const auto& p : poly_.outer) {
-    bx0 = std::min(bx0, p.x()); bx1 = std::max(bx1, p.x());
-    by0 = std::min(by0, p.y()); by1 = std::max(by1, p.y());
+  for (const auto& p : ring) {
+    bx0 = std::min(bx0, p.x());
+    bx1 = std::max(bx1, p.x());
+    by0 = std::min(by0, p.y());
+    by1 = std::max(by1, p.y());
   }
-  // Seed edges by the side the layer lies on: boxes start at an edge with layer on its +x side
-  // and stack towards +x (and the mirror image), so lines are closed under +dims from the one
-  // and -dims from the other. Closing both ways from every edge would add differences of box
-  // sides (e.g. 315 - 232 mm) and fill the layer with near-useless lines.
-  std::vector<std::pair<double, double>> sx[2], sy[2];  // [0]: layer on the + side, [1]: on the - side
-  auto seed_ring = [&](const Ring2d& ring, bool hole) {
-    const std::size_t n = ring.size();
-    const double orient = (signed_area(ring) >= 0 ? 1.0 : -1.0) * (hole ? -1.0 : 1.0);  // +1: layer on the left
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::Vector2d a = ring[i], b = ring[(i + 1) % n];
-      const double len = (b - a).norm();
-      if (len < min_edge) continue;
-      const double ang = std::atan2(std::abs(b.y() - a.y()), std::abs(b.x() - a.x()));
-      // Left of the direction (dx, dy) is (-dy, dx); the layer lies there when orient > 0.
-      if (seed_ok_ && !seed_ok_(a, b, orient * Eigen::Vector2d(b.y() - a.y(), a.x() - b.x()) / len)) continue;
-      if (ang < axis_tol) sy[orient * (b.x() - a.x()) > 0 ? 0 : 1].emplace_back((a.y() + b.y()) / 2, len);
-      if (ang > M_PI / 2 - axis_tol) sx[orient * (a.y() - b.y()) > 0 ? 0 : 1].emplace_back((a.x() + b.x()) / 2, len);
+  return {bx0, by0, bx1, by1};
+}
+
+/// Lines of one axis in [lo, hi]: the seeds with the layer on the + side closed under +dims, those
+/// with the layer on the - side under -dims; the union merged within tol (a line from each side of
+/// the same gap is one line).
+std::vector<double> close_both(const AxisSeeds& seeds, const std::vector<double>& dims,
+                               const std::vector<double>& neg_dims, double lo, double hi, double tol,
+                               bool* capped) {
+  std::vector<double> a = close_lines(seeds.plus, dims, lo, hi, tol, capped);
+  const std::vector<double> b = close_lines(seeds.minus, neg_dims, lo, hi, tol, capped);
+  std::vector<std::pair<double, double>> all;
+  for (double v : a) all.emplace_back(v, 1.0);
+  for (double v : b) all.emplace_back(v, 1.0);
+  std::sort(all.begin(), all.end());
+  std::vector<double> out;
+  for (std::size_t i = 0; i < all.size();) {
+    std::size_t j = i;
+    double sum = 0;
+    while (j < all.size() && all[j].first - all[i].first <= tol) sum += all[j++].first;
+    out.push_back(sum / static_cast<double>(j - i));
+    i = j;
+  }
+  return out;
+}
+
+/// Area of the cell range [i, i1) x [j, j1) from the summed-area table (row stride `stride`).
+double sat_area(const std::vector<double>& sat, std::size_t stride, int i, int j, int i1, int j1) {
+  return sat[static_cast<std::size_t>(j1) * stride + static_cast<std::size_t>(i1)] -
+         sat[static_cast<std::size_t>(j) * stride + static_cast<std::size_t>(i1)] -
+         sat[static_cast<std::size_t>(j1) * stride + static_cast<std::size_t>(i)] +
+         sat[static_cast<std::size_t>(j) * stride + static_cast<std::size_t>(i)];
+}
+
+/// The a_min test on the outline grown by its uncertainty (LayoutParams::outline_tolerance_m),
+/// rasterised only when a placement is short of a_min by less than the growth can add.
+class GrownLayerTest {
+ public:
+  GrownLayerTest(const PolygonWithHoles& poly, double raster_cell_m, double grow_m)
+      : poly_(&poly), raster_cell_m_(raster_cell_m), grow_m_(grow_m) {}
+
+  /// Whether more than `need` [m^2] of rectangle r lies on the grown layer; `a` is Area(r ∩ layer).
+  bool on_layer(const Rect& r, double a, double need) {
+    if (a > need) return true;
+    const double w = r.x1 - r.x0, h = r.y1 - r.y0;
+    if (!(grow_m_ > 0.0) || a + 2.0 * grow_m_ * (w + h) + 4.0 * grow_m_ * grow_m_ <= need) return false;
+    if (!grown_) {
+      grown_ = std::make_unique<AreaOracle>(*poly_, AreaMethod::raster, std::min(raster_cell_m_, grow_m_),
+                                            grow_m_);
     }
-  };
-  seed_ring(edges_.outer, false);
-  for (const auto& h : edges_.holes) seed_ring(h, true);
-  if ((sx[0].empty() && sx[1].empty()) || (sy[0].empty() && sy[1].empty())) {
+    return grown_->area(r) > need;
+  }
+
+ private:
+  const PolygonWithHoles* poly_;
+  double raster_cell_m_;
+  double grow_m_;
+  std::unique_ptr<AreaOracle> grown_;
+};
+
+}  // namespace
+
+bool ProductSearch::build(std::string* reason) {
+  double min_short = kNoSideYetM;
+  const std::vector<double> dims = collect_shapes(&min_short);
+  tol_ = line_merge_tol_m(params_, min_short);
+  const EdgeSeeds seeds = seed_edges(min_corner_edge_m(min_short));
+  if (seeds.x.empty() || seeds.y.empty()) {
     *reason = "the outline has no edge along the layout axes";
     return false;
   }
-  bool capped = false;
-  std::vector<double> neg_dims;
-  for (double d : dims) neg_dims.push_back(-d);
-  auto close_both = [&](std::vector<std::pair<double, double>>* seeds, double lo, double hi) {
-    std::vector<double> a = close_lines(seeds[0], dims, lo, hi, tol_, &capped);
-    const std::vector<double> b = close_lines(seeds[1], neg_dims, lo, hi, tol_, &capped);
-    // Union, merged within the tolerance (a line from each side of the same gap is one line).
-    std::vector<std::pair<double, double>> all;
-    for (double v : a) all.emplace_back(v, 1.0);
-    for (double v : b) all.emplace_back(v, 1.0);
-    std::sort(all.begin(), all.end());
-    std::vector<double> out;
-    for (std::size_t i = 0; i < all.size();) {
-      std::size_t j = i;
-      double sum = 0;
-      while (j < all.size() && all[j].first - all[i].first <= tol_) sum += all[j++].first;
-      out.push_back(sum / static_cast<double>(j - i));
-      i = j;
-    }
-    return out;
-  };
   // Box sides may lie up to the outline's tolerance beyond its extent (a lone box at a coarse
   // pitch measures short by its mixed edge pixels).
   const double grow_m = std::max(0.0, params_.outline_tolerance_m);
-  xs_ = close_both(sx, bx0 - grow_m, bx1 + grow_m);
-  ys_ = close_both(sy, by0 - grow_m, by1 + grow_m);
+  bool capped = false;
+  place_lines(seeds, dims, grow_m, &capped);
   if (capped) {
     *reason = "too many candidate box positions for these formats";
     return false;
@@ -153,51 +170,122 @@ bool ProductSearch::build(std::string* reason) {
     *reason = "the layer is smaller than every box format";
     return false;
   }
+  const std::vector<double> sat = measure_cells();
+  build_placements(sat, grow_m);
+  words_ = (cell_area_.size() + kBitsPerWord - 1) / kBitsPerWord;
+  return true;
+}
+
+// Shapes (every format, along x and, when not square, turned), the smallest box area; returns the
+// distinct box sides, ascending, and lowers *min_short_m to the shortest box side.
+std::vector<double> ProductSearch::collect_shapes(double* min_short_m) {
+  std::vector<double> dims;
+  for (std::size_t f = 0; f < formats_.size(); ++f) {
+    const auto& fm = formats_[f];
+    *min_short_m = std::min(*min_short_m, fm.short_m);
+    dims.push_back(fm.long_m);
+    dims.push_back(fm.short_m);
+    shapes_.push_back({fm.long_m, fm.short_m, static_cast<int>(f), true});
+    if (fm.long_m - fm.short_m > kSameSideTolM) {
+      shapes_.push_back({fm.short_m, fm.long_m, static_cast<int>(f), false});
+    }
+  }
+  std::sort(dims.begin(), dims.end());
+  dims.erase(std::unique(dims.begin(), dims.end(), [](double a, double b) { return b - a < kSameSideTolM; }),
+             dims.end());
+  min_box_area_ = kNoAreaYetM2;
+  for (const auto& fm : formats_) min_box_area_ = std::min(min_box_area_, fm.long_m * fm.short_m);
+  return dims;
+}
+
+// Seed edges by the side the layer lies on: boxes start at an edge with layer on its +x side
+// and stack towards +x (and the mirror image), so lines are closed under +dims from the one
+// and -dims from the other. Closing both ways from every edge would add differences of box
+// sides (e.g. 315 - 232 mm) and fill the layer with near-useless lines.
+EdgeSeeds ProductSearch::seed_edges(double min_edge_m) const {
+  EdgeSeeds seeds;
+  seed_ring(edges_.outer, false, min_edge_m, &seeds);
+  for (const auto& h : edges_.holes) seed_ring(h, true, min_edge_m, &seeds);
+  return seeds;
+}
+
+// Seeds from the axis-aligned edges of one ring at least min_edge_m long that seed_ok_ accepts:
+// edges along x seed y lines, edges along y seed x lines, at their midpoints, weighted by length.
+void ProductSearch::seed_ring(const Ring2d& ring, bool hole, double min_edge_m, EdgeSeeds* seeds) const {
+  const double axis_tol = kAxisTolDeg * M_PI / 180.0;
+  const std::size_t n = ring.size();
+  const double orient = (signed_area(ring) >= 0 ? 1.0 : -1.0) * (hole ? -1.0 : 1.0);  // +1: layer on the left
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d a = ring[i], b = ring[(i + 1) % n];
+    const double len = (b - a).norm();
+    if (len < min_edge_m) continue;
+    const double ang = std::atan2(std::abs(b.y() - a.y()), std::abs(b.x() - a.x()));
+    // Left of the direction (dx, dy) is (-dy, dx); the layer lies there when orient > 0.
+    if (seed_ok_ && !seed_ok_(a, b, orient * Eigen::Vector2d(b.y() - a.y(), a.x() - b.x()) / len)) continue;
+    if (ang < axis_tol) {
+      (orient * (b.x() - a.x()) > 0 ? seeds->y.plus : seeds->y.minus).emplace_back((a.y() + b.y()) / 2, len);
+    }
+    if (ang > M_PI / 2 - axis_tol) {
+      (orient * (a.y() - b.y()) > 0 ? seeds->x.plus : seeds->x.minus).emplace_back((a.x() + b.x()) / 2, len);
+    }
+  }
+}
+
+// Candidate lines xs_, ys_ over the outline's extent grown by grow_m; sets *capped when an axis
+// would need more than kMaxLinesPerAxis lines.
+void ProductSearch::place_lines(const EdgeSeeds& seeds, const std::vector<double>& dims, double grow_m,
+                                bool* capped) {
+  const Rect b = ring_bounds(poly_.outer);
+  std::vector<double> neg_dims;
+  for (double d : dims) neg_dims.push_back(-d);
+  xs_ = close_both(seeds.x, dims, neg_dims, b.x0 - grow_m, b.x1 + grow_m, tol_, capped);
+  ys_ = close_both(seeds.y, dims, neg_dims, b.y0 - grow_m, b.y1 + grow_m, tol_, capped);
+}
+
+// Exact cell areas (cell_area_, total_area_), clipped once; returns their summed-area table
+// ((ny_ + 1) x (nx_ + 1)), which gives O(1) box areas.
+std::vector<double> ProductSearch::measure_cells() {
   const auto ncells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
   cell_area_.assign(ncells, 0.0);
-  // Exact cell areas, clipped once; row sums give O(1) box areas through a summed-area table.
   std::vector<double> sat((static_cast<std::size_t>(nx_) + 1) * (static_cast<std::size_t>(ny_) + 1), 0.0);
-  const auto W = static_cast<std::size_t>(nx_ + 1);
-  const bool grid = params_.area_method == AreaMethod::grid_sat;
+  const auto stride = static_cast<std::size_t>(nx_ + 1);
   for (int j = 0; j < ny_; ++j) {
     double row = 0;
     for (int i = 0; i < nx_; ++i) {
-      const double a = clipped_area(poly_, xs_[static_cast<std::size_t>(i)], ys_[static_cast<std::size_t>(j)],
-                                    xs_[static_cast<std::size_t>(i) + 1], ys_[static_cast<std::size_t>(j) + 1]);
-      cell_area_[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(i)] = a;
+      const double a =
+          clipped_area(poly_, xs_[static_cast<std::size_t>(i)], ys_[static_cast<std::size_t>(j)],
+                       xs_[static_cast<std::size_t>(i) + 1], ys_[static_cast<std::size_t>(j) + 1]);
+      const auto cell =
+          static_cast<std::size_t>(j) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(i);
+      cell_area_[cell] = a;
       row += a;
-      sat[(static_cast<std::size_t>(j) + 1) * W + static_cast<std::size_t>(i) + 1] =
-          sat[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(i) + 1] + row;
+      sat[(static_cast<std::size_t>(j) + 1) * stride + static_cast<std::size_t>(i) + 1] =
+          sat[static_cast<std::size_t>(j) * stride + static_cast<std::size_t>(i) + 1] + row;
     }
   }
   total_area_ = 0;
   for (double a : cell_area_) total_area_ += a;
+  return sat;
+}
+
+// Every placement per cell: each shape from the cell's lower-left corner to the lines its sides
+// reach, when enough of it lies on the layer, with its seam penalty; most promising first.
+void ProductSearch::build_placements(const std::vector<double>& sat, double grow_m) {
+  const auto stride = static_cast<std::size_t>(nx_ + 1);
+  const bool grid = params_.area_method == AreaMethod::grid_sat;
   std::unique_ptr<AreaOracle> oracle;
   if (!grid) oracle = std::make_unique<AreaOracle>(poly_, params_.area_method, params_.area_raster_cell_m);
-
   std::unique_ptr<AreaOracle> mask;  // fast strip areas for the edge evidence
   if (seams_ != nullptr && !seams_->empty()) {
     mask = std::make_unique<AreaOracle>(poly_, AreaMethod::raster, seams_->cell());
   }
-  // The a_min test on the outline grown by its uncertainty (LayoutParams::outline_tolerance_m),
-  // rasterised only when a placement is short of a_min by less than the growth can add.
-  std::unique_ptr<AreaOracle> grown;
-  auto on_layer = [&](const Rect& r, double a, double need) {
-    if (a > need) return true;
-    const double w = r.x1 - r.x0, h = r.y1 - r.y0;
-    if (!(grow_m > 0.0) || a + 2.0 * grow_m * (w + h) + 4.0 * grow_m * grow_m <= need) return false;
-    if (!grown) {
-      grown = std::make_unique<AreaOracle>(poly_, AreaMethod::raster, std::min(params_.area_raster_cell_m, grow_m),
-                                           grow_m);
-    }
-    return grown->area(r) > need;
-  };
-  placements_.assign(ncells, {});
+  GrownLayerTest grown(poly_, params_.area_raster_cell_m, grow_m);
+  placements_.assign(cell_area_.size(), {});
   min_placement_area_ = total_area_;
-  const double margin = params_.seam_margin_m;
   for (int j = 0; j < ny_; ++j) {
     for (int i = 0; i < nx_; ++i) {
-      auto& list = placements_[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(i)];
+      auto& list = placements_[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx_) +
+                               static_cast<std::size_t>(i)];
       for (std::size_t k = 0; k < shapes_.size(); ++k) {
         const Shape& s = shapes_[k];
         const int i1 = find_line(xs_, xs_[static_cast<std::size_t>(i)] + s.dx, tol_);
@@ -205,24 +293,9 @@ bool ProductSearch::build(std::string* reason) {
         if (i1 <= i || j1 <= j) continue;
         const Rect r{xs_[static_cast<std::size_t>(i)], ys_[static_cast<std::size_t>(j)],
                      xs_[static_cast<std::size_t>(i1)], ys_[static_cast<std::size_t>(j1)]};
-        double a;
-        if (grid) {
-          a = sat[static_cast<std::size_t>(j1) * W + static_cast<std::size_t>(i1)] -
-              sat[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(i1)] -
-              sat[static_cast<std::size_t>(j1) * W + static_cast<std::size_t>(i)] +
-              sat[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(i)];
-        } else {
-          a = oracle->area(r);
-        }
-        if (!on_layer(r, a, params_.a_min_fraction * s.dx * s.dy)) continue;
-        double pen = 0;
-        if (seams_ != nullptr && !seams_->empty()) {
-          // Seams across the interior, and edges with a neighbour that lie on no seam.
-          pen = params_.seam_weight * seams_->mass({r.x0 + margin, r.y0 + margin, r.x1 - margin, r.y1 - margin});
-          const EdgeEvidence ev = edge_evidence(r, *seams_, [&](const Rect& q) { return mask->area(q); }, margin);
-          pen += params_.seam_weight * params_.missing_seam_weight * (ev.neighbour_len - ev.supported_len) * seams_->cell();
-        }
-        list.push_back({static_cast<int>(k), i1, j1, a, pen});
+        const double a = grid ? sat_area(sat, stride, i, j, i1, j1) : oracle->area(r);
+        if (!grown.on_layer(r, a, params_.a_min_fraction * s.dx * s.dy)) continue;
+        list.push_back({static_cast<int>(k), i1, j1, a, seam_penalty(r, mask.get())});
         min_placement_area_ = std::min(min_placement_area_, a);
       }
       // Most promising first (largest net gain).
@@ -231,8 +304,20 @@ bool ProductSearch::build(std::string* reason) {
       });
     }
   }
-  words_ = (ncells + 63) / 64;
-  return true;
+}
+
+// Seam penalty of a box (0 without seams): seams across the interior, and edges with a neighbour
+// that lie on no seam.
+double ProductSearch::seam_penalty(const Rect& r, const AreaOracle* mask) const {
+  if (seams_ == nullptr || seams_->empty()) return 0;
+  const double margin = params_.seam_margin_m;
+  double pen =
+      params_.seam_weight * seams_->mass({r.x0 + margin, r.y0 + margin, r.x1 - margin, r.y1 - margin});
+  const auto layer_area = [mask](const Rect& q) { return mask->area(q); };
+  const EdgeEvidence ev = edge_evidence(r, *seams_, layer_area, margin);
+  pen += params_.seam_weight * params_.missing_seam_weight * (ev.neighbour_len - ev.supported_len) *
+         seams_->cell();
+  return pen;
 }
 
 }  // namespace palletd::layout_detail::product

@@ -5,7 +5,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <queue>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -38,6 +40,19 @@ std::vector<double> close_lines(std::vector<std::pair<double, double>> seeds /* 
 /// Index of the line nearest to v within tol, or -1.
 int find_line(const std::vector<double>& lines, double v, double tol);
 
+/// Seed lines of one axis from the outline's axis-aligned edges, (position, edge length) pairs,
+/// by the side of the edge the layer lies on.
+struct AxisSeeds {
+  std::vector<std::pair<double, double>> plus;   ///< layer on the + side: boxes stack towards +
+  std::vector<std::pair<double, double>> minus;  ///< layer on the - side: boxes stack towards -
+  [[nodiscard]] bool empty() const { return plus.empty() && minus.empty(); }
+};
+
+/// Seed lines of both axes: x from edges along y (vertical), y from edges along x (horizontal).
+struct EdgeSeeds {
+  AxisSeeds x, y;
+};
+
 struct Node {
   double covered, lost, penalty;
   int parent;
@@ -68,7 +83,37 @@ class ProductSearch {
   ComponentSolution run();
 
  private:
+  /// Best pasts (covered - penalty [m^2]) seen for one frontier key.
+  struct Dominance {
+    double best = 0.0;
+    std::size_t count = 0;
+  };
+
+  // Candidates (search_candidates.cpp).
   bool build(std::string* reason);
+  std::vector<double> collect_shapes(double* min_short_m);
+  [[nodiscard]] EdgeSeeds seed_edges(double min_edge_m) const;
+  void seed_ring(const Ring2d& ring, bool hole, double min_edge_m, EdgeSeeds* seeds) const;
+  void place_lines(const EdgeSeeds& seeds, const std::vector<double>& dims, double grow_m, bool* capped);
+  std::vector<double> measure_cells();
+  void build_placements(const std::vector<double>& sat, double grow_m);
+  [[nodiscard]] double seam_penalty(const Rect& r, const AreaOracle* mask) const;
+
+  // Best-first search (search_product.cpp).
+  void start_search();
+  void search_best_first(ComponentSolution* sol);
+  bool take_complete(int k, ComponentSolution* sol);
+  void expand(const QueueItem& item, int cell);
+  void admit_child(std::size_t idx);
+  bool dominated(const Node& child, std::size_t idx);
+  void drop_last_node();
+  std::size_t make_child(int k, int pi);
+  void dive(int k);
+  [[nodiscard]] double score_of(int k) const;
+  [[nodiscard]] double floor_score() const;
+  void fill_solution(ComponentSolution* sol);
+
+  // Node state (search_state.cpp).
   [[nodiscard]] bool range_free(const std::uint64_t* occ, int start, int len) const;
   static void set_range(std::uint64_t* occ, int start, int len);
   [[nodiscard]] bool fits(const std::uint64_t* occ, int cell, const Placement& p) const;
@@ -98,6 +143,20 @@ class ProductSearch {
   std::size_t words_ = 0;
   std::vector<Node> nodes_;
   std::vector<std::uint64_t> pool_;
+
+  // Best-first search state.
+  std::size_t max_nodes_ = 0;
+  double tie_margin_m2_ = 0;  ///< scores closer than this tie [m^2]
+  double same_tol_m_ = 0;     ///< box centres closer than this are the same box [m]
+  std::unordered_map<std::uint64_t, Dominance> frontier_;
+  std::priority_queue<QueueItem> queue_;
+  int best_ = -1;       ///< the best complete layout (popped, or the incumbent), -1 = none yet
+  int runner_ = -1;     ///< first kept alternative, -1 = none
+  int best_seen_ = 0;   ///< highest score over all generated nodes (the paper's H_max)
+  int incumbent_ = -1;  ///< best complete node of the greedy dives, -1 = none
+  std::vector<FrameBox> best_boxes_;
+  std::size_t pops_ = 0;
+  bool exhausted_ = false;
 };
 
 }  // namespace palletd::layout_detail::product

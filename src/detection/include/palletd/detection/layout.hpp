@@ -7,28 +7,8 @@
 //   LayoutResult final = refine_layout(found, layer, &seams, params);        // millimetre fit
 // or all three at once: solve_layout(frame, cloud, layer, formats, params).
 //
-// Product search (SearchMode::product, the default). Per component and per layout orientation
-// (taken mod 90 deg from the outline's orthogonal corners), the component is turned so that the
-// layout is axis-aligned. Candidate box-edge lines are the outline's axis-aligned edges closed
-// under every box side towards the side the layer lies on (+sides from an edge with the layer on
-// its + side, -sides from the other; merged within a tolerance); the lines cut the component into grid
-// cells whose exact area inside the outline is clipped once, so Area(B ∩ C) of any box is an
-// O(1) summed-area lookup. Boxes are placed by bottom-left canonical filling: the lowest-leftmost
-// undecided cell is either the bottom-left cell of a new box or left uncovered; every layout is
-// generated exactly once (a tree, so no duplicate hypotheses), and the search is best-first on
-// the admissible bound score + undecided area.
-//
-// Seam evidence never vetoes a layout the outline supports: find_layout searches on the outline
-// (paper score) alone, collecting the best layout and the materially different ones within the
-// ambiguity margin; seam agreement (seam length along shared box edges minus seam length across
-// box interiors, integrated along whole edges) then chooses among those near-equal hypotheses.
-// `ambiguous` is set only when the seams cannot separate them. The seam raster is noise-aware
-// (depth threshold from the plane noise, dark lines in the intensity image against its noise);
-// intensity steps (labels, print, tape edges) are no seams, and scattered dropouts are suppressed
-// by the line filter along the layout axes.
-//
-// Paper mode (SearchMode::paper): Algorithms 1-3 as published (breadth-first queue, every
-// orthogonal corner, four stacking ways), capped by paper_max_hypotheses and the time budget.
+// How the search, the seam ranking and the completion work: docs/architecture.md ("The layout
+// stage") and the comments of src/detection/layout/.
 #pragma once
 
 #include <cstddef>
@@ -90,10 +70,10 @@ struct LayoutParams {
   double ambiguity_margin = 0.02;
   double corner_angle_tol_deg = 10.0;  ///< an outline corner is orthogonal within this [deg]
   double line_merge_tol_m = 0.0;       ///< candidate lines closer than this merge [m]; 0 = auto
-  /// Seam penalty weights of the internal seam-penalised search (Area(B ∩ C) - seam_weight *
-  /// (interior seam mass + missing_seam_weight * unsupported shared edge * cell)). find_layout
-  /// no longer penalises the search with seams (see the header comment); kept so that
-  /// existing configuration files stay valid.
+  /// Weights of the seam-penalised search find_layout runs when the outline search finds more
+  /// near-equal tilings than it lists (Area(B ∩ C) - seam_weight * (interior seam mass +
+  /// missing_seam_weight * unsupported shared edge * cell)); its layouts only join the
+  /// near-equal candidates the seams rank, never replace what the outline supports.
   double seam_weight = 4.0;
   double missing_seam_weight = 1.0;
   double seam_margin_m = 0.012;        ///< box interior = box shrunk by this before seam lookup [m]
