@@ -9,10 +9,10 @@ namespace palletd {
 
 const char* to_string(CameraState state) {
   switch (state) {
-    case CameraState::closed: return "closed";
-    case CameraState::open: return "open";
-    case CameraState::streaming: return "streaming";
-    case CameraState::faulted: return "faulted";
+    case CameraState::kClosed: return "closed";
+    case CameraState::kOpen: return "open";
+    case CameraState::kStreaming: return "streaming";
+    case CameraState::kFaulted: return "faulted";
   }
   return "unknown";
 }
@@ -32,19 +32,19 @@ Status Camera::fail(std::string message) {
 
 Status Camera::open() {
   const CameraState s = state();
-  if (s != CameraState::closed && s != CameraState::faulted) {
+  if (s != CameraState::kClosed && s != CameraState::kFaulted) {
     return fail(std::string("camera open: refused in state ") + to_string(s) + " (close it first)");
   }
-  if (s == CameraState::faulted) {
+  if (s == CameraState::kFaulted) {
     do_close();
-    state_ = CameraState::closed;
+    state_ = CameraState::kClosed;
   }
   Status status = do_open();
   if (!status) {
     do_close();
     return fail("camera open: " + status.error());
   }
-  state_ = CameraState::open;
+  state_ = CameraState::kOpen;
   if (faulted_since_open_) {
     ++reconnects_;
     faulted_since_open_ = false;
@@ -54,37 +54,37 @@ Status Camera::open() {
 
 Status Camera::start() {
   const CameraState s = state();
-  if (s == CameraState::streaming) return {};
-  if (s != CameraState::open) {
+  if (s == CameraState::kStreaming) return {};
+  if (s != CameraState::kOpen) {
     return fail(std::string("camera start: refused in state ") + to_string(s) + " (open it first)");
   }
   Status status = do_start();
   if (!status) return fail("camera start: " + status.error());
-  state_ = CameraState::streaming;
+  state_ = CameraState::kStreaming;
   return {};
 }
 
 Status Camera::stop() {
   const CameraState s = state();
-  if (s == CameraState::open) return {};
-  if (s != CameraState::streaming) {
+  if (s == CameraState::kOpen) return {};
+  if (s != CameraState::kStreaming) {
     return fail(std::string("camera stop: refused in state ") + to_string(s));
   }
   Status status = do_stop();
-  state_ = CameraState::open;
+  state_ = CameraState::kOpen;
   if (!status) return fail("camera stop: " + status.error());
   return {};
 }
 
 void Camera::close() {
-  if (state() == CameraState::closed) return;
+  if (state() == CameraState::kClosed) return;
   do_close();
-  state_ = CameraState::closed;
+  state_ = CameraState::kClosed;
 }
 
 Expected<Frame> Camera::grab(std::chrono::milliseconds timeout) {
   const CameraState s = state();
-  if (s != CameraState::streaming) {
+  if (s != CameraState::kStreaming) {
     return Error{fail(std::string("camera grab: refused in state ") + to_string(s)).error()};
   }
   fault_pending_ = false;
@@ -97,14 +97,14 @@ Expected<Frame> Camera::grab(std::chrono::milliseconds timeout) {
     fault_pending_ = false;
     faulted_since_open_ = true;
     ++faults_;
-    state_ = CameraState::faulted;
+    state_ = CameraState::kFaulted;
   }
   return Error{fail(frame.error()).error()};
 }
 
 Status Camera::software_trigger() {
   const CameraState s = state();
-  if (s != CameraState::streaming) {
+  if (s != CameraState::kStreaming) {
     return fail(std::string("camera trigger: refused in state ") + to_string(s));
   }
   if (!trigger_mode()) return fail("camera trigger: the camera is free-running (not in trigger mode)");
@@ -119,7 +119,7 @@ Status Camera::software_trigger() {
       fault_pending_ = false;
       faulted_since_open_ = true;
       ++faults_;
-      state_ = CameraState::faulted;
+      state_ = CameraState::kFaulted;
     }
     return fail("camera trigger: " + status.error());
   }
@@ -129,10 +129,10 @@ Status Camera::software_trigger() {
 Status Camera::do_software_trigger() { return Error{"this camera has no software trigger"}; }
 
 void Camera::check_alive() {
-  if (state() != CameraState::streaming || do_alive()) return;
+  if (state() != CameraState::kStreaming || do_alive()) return;
   faulted_since_open_ = true;
   ++faults_;
-  state_ = CameraState::faulted;
+  state_ = CameraState::kFaulted;
   (void)fail("camera " + identity().id() + " lost (the driver lost its control channel)");
 }
 
@@ -214,9 +214,9 @@ Status CameraSupervisor::bring_up() {
     std::lock_guard<std::mutex> lock(retry_mutex_);
     if (now < next_attempt_) return Error{"not yet due"};
   }
-  if (camera_->state() == CameraState::faulted) camera_->close();
+  if (camera_->state() == CameraState::kFaulted) camera_->close();
   Status status;
-  if (camera_->state() == CameraState::closed) status = camera_->open();
+  if (camera_->state() == CameraState::kClosed) status = camera_->open();
   if (status) status = camera_->start();
   if (status) {
     backoff_.reset();
@@ -233,7 +233,7 @@ Status CameraSupervisor::bring_up() {
 
 Expected<Frame> CameraSupervisor::grab(std::chrono::milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
-  if (camera_->state() != CameraState::streaming) {
+  if (camera_->state() != CameraState::kStreaming) {
     Status up = bring_up();
     if (!up) {
       // Not streaming: wait out the timeout (or until the next attempt is due) so a caller
@@ -251,7 +251,7 @@ Expected<Frame> CameraSupervisor::grab(std::chrono::milliseconds timeout) {
   const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
       deadline - std::chrono::steady_clock::now());
   Expected<Frame> frame = camera_->grab(std::max(left, std::chrono::milliseconds(1)));
-  if (!frame && camera_->state() == CameraState::faulted) {
+  if (!frame && camera_->state() == CameraState::kFaulted) {
     // Reconnect at once the first time; later failures back off.
     std::lock_guard<std::mutex> lock(retry_mutex_);
     next_attempt_ = std::chrono::steady_clock::now();
@@ -260,25 +260,25 @@ Expected<Frame> CameraSupervisor::grab(std::chrono::milliseconds timeout) {
 }
 
 bool CameraSupervisor::ensure_streaming() {
-  if (camera_->state() == CameraState::streaming) camera_->check_alive();
-  if (camera_->state() == CameraState::streaming) return true;
+  if (camera_->state() == CameraState::kStreaming) camera_->check_alive();
+  if (camera_->state() == CameraState::kStreaming) return true;
   return bring_up().ok();
 }
 
 Status CameraSupervisor::software_trigger() {
-  if (camera_->state() != CameraState::streaming) {
+  if (camera_->state() != CameraState::kStreaming) {
     return Error{std::string("camera trigger: camera is ") + to_string(camera_->state())};
   }
   return camera_->software_trigger();
 }
 
 void CameraSupervisor::shutdown() {
-  if (camera_->state() == CameraState::streaming) (void)camera_->stop();
+  if (camera_->state() == CameraState::kStreaming) (void)camera_->stop();
   camera_->close();
 }
 
 double CameraSupervisor::seconds_to_retry() const {
-  if (camera_->state() == CameraState::streaming) return 0.0;
+  if (camera_->state() == CameraState::kStreaming) return 0.0;
   std::lock_guard<std::mutex> lock(retry_mutex_);
   const auto left = next_attempt_ - std::chrono::steady_clock::now();
   return std::max(0.0, std::chrono::duration<double>(left).count());

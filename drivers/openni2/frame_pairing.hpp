@@ -34,7 +34,7 @@ template <typename Held>
 class FramePairing {
  public:
   using Clock = std::chrono::steady_clock;
-  enum class Stream { depth, ir };
+  enum class Stream { kDepth, kIr };
   struct Entry {
     std::uint64_t timestamp_us = 0;  ///< device timestamp [us]
     int index = 0;                   ///< device frame index
@@ -51,7 +51,7 @@ class FramePairing {
     std::vector<Entry> gone;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      std::deque<Entry>& ring = stream == Stream::depth ? depth_ : ir_;
+      std::deque<Entry>& ring = stream == Stream::kDepth ? depth_ : ir_;
       ring.push_back(std::move(entry));
       while (ring.size() > capacity_) {
         gone.push_back(std::move(ring.front()));

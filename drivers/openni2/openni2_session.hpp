@@ -162,8 +162,8 @@ struct Session {
   int file_frames = 0;   ///< depth frames in the .oni file
   int last_index = 0;    ///< frame index of the last depth frame delivered (0 = none yet)
   Pairing pairing{kRingFrames};
-  RingListener depth_listener{pairing, Pairing::Stream::depth};
-  RingListener ir_listener{pairing, Pairing::Stream::ir};
+  RingListener depth_listener{pairing, Pairing::Stream::kDepth};
+  RingListener ir_listener{pairing, Pairing::Stream::kIr};
   bool depth_listening = false;
   bool ir_listening = false;
 

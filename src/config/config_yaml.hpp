@@ -221,6 +221,19 @@ Field<S> section(const char* key, Sub S::*member, const Table<Sub>& (*table)()) 
           [table](const std::string& path, std::vector<std::string>& keys) { list_section(path, table(), keys); }};
 }
 
+/// A field of a member struct bound at this level: the key stays flat in the file while the
+/// value lives in `member` (one section of the file for a struct split by purpose).
+template <typename S, typename Sub>
+Field<S> within(Sub S::*member, Field<Sub> field) {
+  return {field.key,
+          [member, read = field.read](const Context& ctx, const YAML::Node& node, const std::string& path, S& out) {
+            read(ctx, node, path, out.*member);
+          },
+          [member, compare = field.compare](const S& a, const S& b, const std::string& path,
+                                            std::vector<std::string>& diffs) { compare(a.*member, b.*member, path, diffs); },
+          field.list};
+}
+
 // The tables (config_fields.cpp).
 const Table<CameraConfig>& camera_table();
 const Table<DetectionParams>& detection_table();

@@ -14,11 +14,11 @@ namespace palletd {
 
 const char* to_string(DetectionStatus status) {
   switch (status) {
-    case DetectionStatus::ok: return "ok";
-    case DetectionStatus::no_plane: return "no_plane";
-    case DetectionStatus::no_layer: return "no_layer";
-    case DetectionStatus::no_layout: return "no_layout";
-    case DetectionStatus::bad_frame: return "bad_frame";
+    case DetectionStatus::kOk: return "ok";
+    case DetectionStatus::kNoPlane: return "no_plane";
+    case DetectionStatus::kNoLayer: return "no_layer";
+    case DetectionStatus::kNoLayout: return "no_layout";
+    case DetectionStatus::kBadFrame: return "bad_frame";
   }
   return "bad_frame";
 }
@@ -64,9 +64,9 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
     out.timing_ms["total"] = ms_since(t_start);
     return out;
   };
-  if (std::string problem = frame_problem(frame); !problem.empty()) return finish(DetectionStatus::bad_frame, problem);
+  if (std::string problem = frame_problem(frame); !problem.empty()) return finish(DetectionStatus::kBadFrame, problem);
   if (std::string problem = box_formats_problem(formats); !problem.empty())
-    return finish(DetectionStatus::no_layout, problem);
+    return finish(DetectionStatus::kNoLayout, problem);
 
   // Stage 0: organized cloud into the caller's workspace (rays and cloud reused frame after frame).
   auto t0 = Clock::now();
@@ -88,7 +88,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.clipped_by_image_border = diag.touches_image_border;
   out.outline_unobserved = diag.outline_along_invalid;
   for (const auto& polygon : out.layer.polygons) out.layer_area_m2 += area(polygon);
-  if (out.layer.status != DetectionStatus::ok) return finish(out.layer.status, out.layer.reason);
+  if (out.layer.status != DetectionStatus::kOk) return finish(out.layer.status, out.layer.reason);
 
   // Stages 6-7: layout search with seam evidence, refinement.
   t0 = Clock::now();
@@ -97,10 +97,10 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.ambiguous = layout.ambiguous;
   out.budget_exhausted = layout.budget_exhausted;
   out.coverage = layout.coverage;
-  if (layout.status != DetectionStatus::ok) return finish(layout.status, layout.reason);
+  if (layout.status != DetectionStatus::kOk) return finish(layout.status, layout.reason);
 
   // Stage 8: poses in the camera and base frames, pick order.
-  out.boxes = to_detected_boxes(layout.boxes, layout.box_scores, layout.box_partly_unseen, out.layer.T_camera_layer,
+  out.boxes = to_detected_boxes(layout.boxes, out.layer.T_camera_layer,
                                 frame.T_base_camera, params.pick_order);
   // The layer's warnings (an outline along invalid depth) stay with a successful frame.
   std::string message = out.layer.reason;
@@ -108,7 +108,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
     message += (message.empty() ? "" : "; ") + std::to_string(layout.completed_unseen) +
                " box(es) completed across the edge where the depth ends (partly_unseen)";
   }
-  return finish(DetectionStatus::ok, message);
+  return finish(DetectionStatus::kOk, message);
 }
 
 }  // namespace palletd

@@ -29,15 +29,15 @@ void assign_pick_order(std::vector<DetectedBox>& boxes, PickOrder order) {
     for (const auto& b : boxes) row_tolerance_m = std::min(row_tolerance_m, 0.5 * b.short_m);
     auto key_distance = [&](std::size_t i) { return (ordering_position(boxes[i]) - reference).norm(); };
     switch (order) {
-      case PickOrder::far_corner_first:
+      case PickOrder::kFarCornerFirst:
         std::stable_sort(idx.begin(), idx.end(),
                          [&](std::size_t a, std::size_t b) { return key_distance(a) > key_distance(b); });
         break;
-      case PickOrder::nearest_first:
+      case PickOrder::kNearestFirst:
         std::stable_sort(idx.begin(), idx.end(),
                          [&](std::size_t a, std::size_t b) { return key_distance(a) < key_distance(b); });
         break;
-      case PickOrder::row_major:
+      case PickOrder::kRowMajor:
         std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
           const Eigen::Vector2d pa = ordering_position(boxes[a]);
           const Eigen::Vector2d pb = ordering_position(boxes[b]);
@@ -58,8 +58,7 @@ void assign_pick_order(std::vector<DetectedBox>& boxes, PickOrder order) {
 
 }  // namespace
 
-std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, const std::vector<double>& scores,
-                                           const std::vector<bool>& partly_unseen,
+std::vector<DetectedBox> to_detected_boxes(const std::vector<LayoutBox>& boxes,
                                            const Eigen::Isometry3d& T_camera_layer,
                                            const std::optional<Eigen::Isometry3d>& T_base_camera,
                                            PickOrder order) {
@@ -67,7 +66,7 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, cons
   out.reserve(boxes.size());
   const Eigen::Matrix3d R_camera_layer = T_camera_layer.linear();
   for (std::size_t i = 0; i < boxes.size(); ++i) {
-    const Box2d& b = boxes[i];
+    const LayoutBox& b = boxes[i];
     DetectedBox d;
     d.in_layer = b;
     d.center = T_camera_layer * Eigen::Vector3d(b.center.x(), b.center.y(), 0.0);
@@ -76,8 +75,8 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, cons
     d.long_m = b.long_m;
     d.short_m = b.short_m;
     d.format = b.format;
-    d.score = i < scores.size() ? scores[i] : 0.0;
-    d.partly_unseen = i < partly_unseen.size() && partly_unseen[i];
+    d.score = b.score;
+    d.partly_unseen = b.partly_unseen;
     if (T_base_camera) {
       d.base_position = *T_base_camera * d.center;
       d.base_yaw_deg = axis_yaw_deg(T_base_camera->linear() * d.long_axis);

@@ -14,8 +14,7 @@ namespace palletd {
 /// Camera-frame (and, when T_base_camera is given, base-frame) poses of layer-frame boxes,
 /// with pick_index assigned by `order`. `scores` and `partly_unseen` are parallel to `boxes` (either
 /// may be empty: 0 and false).
-std::vector<DetectedBox> to_detected_boxes(const std::vector<Box2d>& boxes, const std::vector<double>& scores,
-                                           const std::vector<bool>& partly_unseen,
+std::vector<DetectedBox> to_detected_boxes(const std::vector<LayoutBox>& boxes,
                                            const Eigen::Isometry3d& T_camera_layer,
                                            const std::optional<Eigen::Isometry3d>& T_base_camera,
                                            PickOrder order);

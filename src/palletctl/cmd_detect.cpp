@@ -31,7 +31,7 @@ struct DetectArgs {
 
 Detection bad_frame(const std::string& message) {
   Detection d;
-  d.status = DetectionStatus::bad_frame;
+  d.status = DetectionStatus::kBadFrame;
   d.message = message;
   d.timing_ms["total"] = 0.0;
   return d;
@@ -65,7 +65,7 @@ int run_detect(const DetectArgs& a) {
     }
     std::printf("%s\n", detection_to_json_line(detection, stem).c_str());
     std::fflush(stdout);
-    if (detection.status != DetectionStatus::ok) ++failed;
+    if (detection.status != DetectionStatus::kOk) ++failed;
     if (!frame) continue;
     const std::string name = std::filesystem::path(stem).filename().string();
     if (!a.overlay_dir.empty())

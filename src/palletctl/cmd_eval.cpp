@@ -29,7 +29,7 @@ struct EvalArgs {
 };
 
 /// Whether the truth's layout is the only one its own outline supports: the truth boxes are drawn
-/// in their layer (gaps between neighbours bridged), the outline traced, and the product search
+/// in their layer (gaps between neighbours bridged), the outline traced, and the best-first search
 /// run on that outline alone (no seams). 1 = another layout fits as well (or better), 0 = the
 /// outline determines the truth, -1 = not checked.
 int truth_outline_tied(const Truth& truth, const std::vector<BoxFormat>& formats, const std::vector<std::string>& names) {
@@ -100,9 +100,9 @@ int truth_outline_tied(const Truth& truth, const std::vector<BoxFormat>& formats
     polys.push_back(std::move(poly));
   }
   LayoutParams p;
-  p.time_budget_ms = 1000.0;
+  p.search.time_budget_ms = 1000.0;
   const LayoutResult r = find_layout(polys, formats, p, nullptr);
-  if (r.status != DetectionStatus::ok || r.ambiguous || r.boxes.size() != boxes.size()) return 1;
+  if (r.status != DetectionStatus::kOk || r.ambiguous || r.boxes.size() != boxes.size()) return 1;
   std::vector<bool> used(r.boxes.size(), false);
   for (const Box2d& t : boxes) {
     bool hit = false;
@@ -194,7 +194,7 @@ int run_eval(const EvalArgs& a) {
     Expected<Frame> frame = read_frame(stem);
     Detection detection;
     if (!frame) {
-      detection.status = DetectionStatus::bad_frame;
+      detection.status = DetectionStatus::kBadFrame;
       detection.message = frame.error();
     } else {
       detection = detect(*frame, formats, setup.params, workspace);

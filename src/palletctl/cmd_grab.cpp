@@ -96,7 +96,7 @@ void run_grab(const GrabArgs& args) {
     if (!frame) {
       std::printf("%s: error: %s\n", stem.c_str(), frame.error().c_str());
       ++failed;
-      if (camera->state() == CameraState::faulted) break;
+      if (camera->state() == CameraState::kFaulted) break;
       continue;
     }
     if (config.T_base_camera) frame->T_base_camera = config.T_base_camera;

@@ -142,7 +142,7 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
     }
   }
   e.pairwise_error_mm = pw_n > 0 ? pw_sum / static_cast<double>(pw_n) : 0.0;
-  e.exact = detection.status == DetectionStatus::ok && e.matched == e.truth_boxes &&
+  e.exact = detection.status == DetectionStatus::kOk && e.matched == e.truth_boxes &&
             e.matched == e.detected_boxes && within && e.formats_right;
   return e;
 }

@@ -92,7 +92,7 @@ std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection
   std::string caption = std::string(to_string(detection.status)) + "  boxes: " +
                         std::to_string(detection.boxes.size());
   if (detection.ambiguous) caption += "  AMBIGUOUS";
-  if (detection.status != DetectionStatus::ok && !detection.message.empty()) caption += "  " + detection.message;
+  if (detection.status != DetectionStatus::kOk && !detection.message.empty()) caption += "  " + detection.message;
   cv::putText(image, caption, cv::Point(8, 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 4, cv::LINE_AA);
   cv::putText(image, caption, cv::Point(8, 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(255, 255, 255), 1,
               cv::LINE_AA);

@@ -58,7 +58,7 @@ Expected<Frame> Acquisition::acquire(const Request& request) {
     if (!triggered) {
       // The camera found gone by this very trigger is not asked again now (every call on a
       // vanished GigE camera blocks for seconds); the idle loop reconnects it with backoff.
-      if (camera_->state() == CameraState::faulted) return Error{triggered.error()};
+      if (camera_->state() == CameraState::kFaulted) return Error{triggered.error()};
       // Not streaming yet: the camera may just have come back. One more try after bringing it up.
       camera_->ensure_streaming();
       triggered = camera_->software_trigger();

@@ -7,11 +7,11 @@ namespace palletd {
 
 modbus::DetectionFailure failure_of(DetectionStatus status) {
   switch (status) {
-    case DetectionStatus::no_plane: return modbus::DetectionFailure::kNoPlane;
-    case DetectionStatus::no_layer: return modbus::DetectionFailure::kNoLayer;
-    case DetectionStatus::no_layout: return modbus::DetectionFailure::kNoLayout;
-    case DetectionStatus::bad_frame: return modbus::DetectionFailure::kBadFrame;
-    case DetectionStatus::ok: break;
+    case DetectionStatus::kNoPlane: return modbus::DetectionFailure::kNoPlane;
+    case DetectionStatus::kNoLayer: return modbus::DetectionFailure::kNoLayer;
+    case DetectionStatus::kNoLayout: return modbus::DetectionFailure::kNoLayout;
+    case DetectionStatus::kBadFrame: return modbus::DetectionFailure::kBadFrame;
+    case DetectionStatus::kOk: break;
   }
   return modbus::DetectionFailure::kUnknown;
 }
@@ -35,7 +35,7 @@ double layer_z_m(const Detection& detection, bool base_frame) {
 
 modbus::ResultRecord to_result_record(const Detection& detection, bool base_frame) {
   modbus::ResultRecord r;
-  if (detection.status != DetectionStatus::ok) {
+  if (detection.status != DetectionStatus::kOk) {
     r.status = modbus::ResultStatus::kFailed;
     r.error = modbus::ErrorCode::kDetectionFailed;
     r.error_detail = static_cast<std::uint16_t>(failure_of(detection.status));
@@ -63,7 +63,7 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
   r.budget_exhausted = detection.budget_exhausted;
   r.layer_clipped = detection.clipped_by_image_border;
   r.outline_unobserved = detection.outline_unobserved;
-  r.layer_z_m = detection.status == DetectionStatus::ok ? layer_z_m(detection, base_frame) : 0.0;
+  r.layer_z_m = detection.status == DetectionStatus::kOk ? layer_z_m(detection, base_frame) : 0.0;
   r.coverage = detection.coverage;
   auto total = detection.timing_ms.find("total");
   r.processing_ms = total != detection.timing_ms.end() ? total->second : 0.0;

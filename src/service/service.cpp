@@ -182,7 +182,7 @@ class Service::Impl {
     // Not streaming after a fault (also while closed between reconnect attempts) or after a
     // failed attempt: disconnected. Closed before the first attempt is just starting up.
     if (!status->camera_ok && running_.load() &&
-        (cam.state() != CameraState::closed || c.faults > 0 || cam.seconds_to_retry() > 0.0)) {
+        (cam.state() != CameraState::kClosed || c.faults > 0 || cam.seconds_to_retry() > 0.0)) {
       status->error = modbus::ErrorCode::kCameraDisconnected;
       status->error_detail = static_cast<std::uint16_t>(std::min<std::uint64_t>(c.faults, 65535));
     }
@@ -305,7 +305,7 @@ class Service::Impl {
       fail(record, snapshot, modbus::ErrorCode::kDetectionTimeout,
            static_cast<std::uint16_t>(std::min(elapsed_ms, 65535.0)),
            "detection took " + std::to_string(static_cast<int>(elapsed_ms)) + " ms, over the timeout");
-    } else if (detection.status != DetectionStatus::ok) {
+    } else if (detection.status != DetectionStatus::kOk) {
       failures_.fetch_add(1);
       snapshot.error = modbus::ErrorCode::kDetectionFailed;
       snapshot.error_text = std::string(to_string(detection.status)) + ": " + detection.message;

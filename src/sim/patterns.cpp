@@ -214,12 +214,12 @@ std::vector<PlacedBox> make_pattern(PatternFamily family, const std::vector<BoxF
   const double a = area_long_m;
   const double b = area_short_m;
   switch (family) {
-    case PatternFamily::Block: boxes = block(formats, a, b); break;
-    case PatternFamily::Interlock: boxes = interlock(formats, a, b); break;
-    case PatternFamily::Brick: boxes = brick(formats, a, b); break;
-    case PatternFamily::Pinwheel: boxes = pinwheel(formats, a, b, false, rng); break;
-    case PatternFamily::Chimney: boxes = pinwheel(formats, a, b, true, rng); break;
-    case PatternFamily::Mixed: boxes = mixed(formats, a, b); break;
+    case PatternFamily::kBlock: boxes = block(formats, a, b); break;
+    case PatternFamily::kInterlock: boxes = interlock(formats, a, b); break;
+    case PatternFamily::kBrick: boxes = brick(formats, a, b); break;
+    case PatternFamily::kPinwheel: boxes = pinwheel(formats, a, b, false, rng); break;
+    case PatternFamily::kChimney: boxes = pinwheel(formats, a, b, true, rng); break;
+    case PatternFamily::kMixed: boxes = mixed(formats, a, b); break;
   }
   // Centre the layout's bounding box on the origin.
   Eigen::Vector2d lo(std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
@@ -285,26 +285,26 @@ std::vector<std::size_t> removal_order(const std::vector<SimBox>& layer, Removal
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector2d& c = layer[i].center;
     switch (mode) {
-      case RemovalMode::Rows:
-      case RemovalMode::Columns: {
-        const int primary = mode == RemovalMode::Rows ? axis : 1 - axis;
+      case RemovalMode::kRows:
+      case RemovalMode::kColumns: {
+        const int primary = mode == RemovalMode::kRows ? axis : 1 - axis;
         const double row = std::floor(sign * c[primary] / row_pitch);
         key[i] = row * 1000.0 + sign * c[1 - primary];
         break;
       }
-      case RemovalMode::Corner: {
+      case RemovalMode::kCorner: {
         const Eigen::Vector2d corner(sign > 0 ? hi.x() : lo.x(), axis == 1 ? hi.y() : lo.y());
         key[i] = (c - corner).norm();
         break;
       }
-      case RemovalMode::Random: key[i] = rng.uniform(); break;
-      case RemovalMode::Holes: {
+      case RemovalMode::kRandom: key[i] = rng.uniform(); break;
+      case RemovalMode::kHoles: {
         // Boxes away from the layer's outline go first, so the remaining boxes surround holes.
         const double border = std::min({c.x() - lo.x(), hi.x() - c.x(), c.y() - lo.y(), hi.y() - c.y()});
         key[i] = (border > 1e-3 ? 0.0 : 10.0) + rng.uniform();
         break;
       }
-      case RemovalMode::Clusters:  // a band through the middle goes first: separate clusters remain
+      case RemovalMode::kClusters:  // a band through the middle goes first: separate clusters remain
         key[i] = std::abs(c[axis] - mid[axis]) + 0.01 * rng.uniform();
         break;
     }

@@ -73,7 +73,7 @@ Expected<SensorProfile> profile_by_name(const std::string& name) {
   if (name == "xtion") {
     // Structured light (Xtion / Kinect v1 / Orbbec-like): 640x480, 58x45 deg, millimetres, 8-bit IR.
     p.camera_id = "sim-xtion";
-    p.kind = SensorKind::StructuredLight;
+    p.kind = SensorKind::kStructuredLight;
     p.intrinsics = from_fov(640, 480, 58.0, 45.0);
     p.depth_scale_m = 0.001;
     p.intensity_bits = 8;

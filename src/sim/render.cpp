@@ -247,7 +247,7 @@ std::vector<PixelSignal> cast_pixels(const RayScene& rays, const Intrinsics& k, 
 std::vector<float> multipath_of(const std::vector<PixelSignal>& signal, const SensorProfile& profile,
                                 const RenderOptions& opt) {
   std::vector<float> bias;
-  const bool tof = profile.kind == SensorKind::TimeOfFlight;
+  const bool tof = profile.kind == SensorKind::kTimeOfFlight;
   if (tof && opt.multipath && profile.multipath_bias_m > 0.0) {
     std::vector<float> zf(signal.size());
     for (std::size_t i = 0; i < signal.size(); ++i) zf[i] = static_cast<float>(signal[i].z);
@@ -276,7 +276,7 @@ class SensorModel {
       : profile_(profile),
         opt_(opt),
         boxes_(rays.boxes),
-        tof_(profile.kind == SensorKind::TimeOfFlight),
+        tof_(profile.kind == SensorKind::kTimeOfFlight),
         p_invalid_(p_invalid),
         a_ref_(profile.reference_reflectance / (kReferenceRange_m * kReferenceRange_m)),
         projector_(rays.origin + rays.rotation * Eigen::Vector3d(profile.sl_baseline_m, 0.0, 0.0)),
@@ -376,7 +376,7 @@ void apply_sensor(Frame& frame, const std::vector<PixelSignal>& signal, const st
 /// dropouts, quantisation); the truth and the scene go with the frame.
 SimulatedFrame render(const Scene& scene, const SensorProfile& profile, std::uint64_t seed, const RenderOptions& opt) {
   const int ss = std::max(1, opt.supersampling > 0 ? opt.supersampling : profile.supersampling);
-  const bool tof = profile.kind == SensorKind::TimeOfFlight;
+  const bool tof = profile.kind == SensorKind::kTimeOfFlight;
   const RayScene rays = prepare_rays(scene, profile.intrinsics);
   const std::vector<PixelSignal> signal = cast_pixels(rays, profile.intrinsics, ss, tof);
   const std::vector<float> bias = multipath_of(signal, profile, opt);

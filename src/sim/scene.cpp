@@ -29,12 +29,12 @@ BoxFormatSpec format_mm(int long_mm, int short_mm) {
 
 std::vector<BoxFormatSpec> default_formats(PatternFamily pattern) {
   switch (pattern) {
-    case PatternFamily::Block: return {format_mm(600, 400)};
-    case PatternFamily::Interlock: return {format_mm(400, 300)};
-    case PatternFamily::Brick: return {format_mm(300, 200)};
-    case PatternFamily::Pinwheel:
-    case PatternFamily::Chimney: return {format_mm(315, 232)};
-    case PatternFamily::Mixed: return {format_mm(600, 400), format_mm(400, 300)};
+    case PatternFamily::kBlock: return {format_mm(600, 400)};
+    case PatternFamily::kInterlock: return {format_mm(400, 300)};
+    case PatternFamily::kBrick: return {format_mm(300, 200)};
+    case PatternFamily::kPinwheel:
+    case PatternFamily::kChimney: return {format_mm(315, 232)};
+    case PatternFamily::kMixed: return {format_mm(600, 400), format_mm(400, 300)};
   }
   return {format_mm(600, 400)};
 }
@@ -144,7 +144,7 @@ std::vector<SimBox> build_layer(std::vector<PlacedBox> pattern, const std::vecto
 }
 
 void add_pallet(Scene& scene) {
-  if (scene.pallet == PalletKind::None) return;
+  if (scene.pallet == PalletKind::kNone) return;
   const double rho = 0.4;  // wood
   SimBox deck;
   deck.long_m = scene.pallet_long_m;
@@ -248,14 +248,14 @@ Expected<Scene> make_scene(const ScenarioOptions& o, const SensorProfile& profil
   Scene scene;
   scene.pallet = o.pallet;
   scene.pallet_long_m = 1.2;
-  scene.pallet_short_m = o.pallet == PalletKind::Industrial1200x1000 ? 1.0 : 0.8;
+  scene.pallet_short_m = o.pallet == PalletKind::kIndustrial1200x1000 ? 1.0 : 0.8;
   scene.floor_reflectance = rng.uniform(0.15, 0.35);
   std::vector<BoxFormatSpec> formats = o.formats.empty() ? default_formats(o.pattern) : o.formats;
-  if (o.pattern == PatternFamily::Mixed && formats.size() < 2) {
+  if (o.pattern == PatternFamily::kMixed && formats.size() < 2) {
     const BoxFormatSpec second = formats[0].long_m >= 0.5 ? format_mm(400, 300) : format_mm(600, 400);
     formats.push_back(second);
   }
-  if (o.pattern != PatternFamily::Mixed) formats.resize(1);
+  if (o.pattern != PatternFamily::kMixed) formats.resize(1);
   const double layer_height = formats[0].height_m;  // one height per layer: a flat top
   const std::vector<PlacedBox> pattern =
       detail::make_pattern(o.pattern, formats, scene.pallet_long_m, scene.pallet_short_m, rng);
@@ -263,7 +263,7 @@ Expected<Scene> make_scene(const ScenarioOptions& o, const SensorProfile& profil
     return Error{"no box of format " + formats[0].name + " fits the " + to_string(o.pallet) + " pallet"};
 
   add_pallet(scene);
-  const double base = o.pallet == PalletKind::None ? 0.0 : kPalletHeight;
+  const double base = o.pallet == PalletKind::kNone ? 0.0 : kPalletHeight;
   const int lower = rng.integer(std::max(0, o.lower_layers_min), std::max(o.lower_layers_min, o.lower_layers_max));
   double z = base;
   for (int layer = 0; layer < lower; ++layer) {

@@ -8,57 +8,57 @@ namespace palletd::sim {
 
 std::string to_string(PatternFamily pattern) {
   switch (pattern) {
-    case PatternFamily::Block: return "block";
-    case PatternFamily::Interlock: return "interlock";
-    case PatternFamily::Brick: return "brick";
-    case PatternFamily::Pinwheel: return "pinwheel";
-    case PatternFamily::Chimney: return "chimney";
-    case PatternFamily::Mixed: return "mixed";
+    case PatternFamily::kBlock: return "block";
+    case PatternFamily::kInterlock: return "interlock";
+    case PatternFamily::kBrick: return "brick";
+    case PatternFamily::kPinwheel: return "pinwheel";
+    case PatternFamily::kChimney: return "chimney";
+    case PatternFamily::kMixed: return "mixed";
   }
   return "block";
 }
 
 std::string to_string(RemovalMode mode) {
   switch (mode) {
-    case RemovalMode::Rows: return "rows";
-    case RemovalMode::Columns: return "columns";
-    case RemovalMode::Corner: return "corner";
-    case RemovalMode::Random: return "random";
-    case RemovalMode::Holes: return "holes";
-    case RemovalMode::Clusters: return "clusters";
+    case RemovalMode::kRows: return "rows";
+    case RemovalMode::kColumns: return "columns";
+    case RemovalMode::kCorner: return "corner";
+    case RemovalMode::kRandom: return "random";
+    case RemovalMode::kHoles: return "holes";
+    case RemovalMode::kClusters: return "clusters";
   }
   return "rows";
 }
 
 std::string to_string(PalletKind pallet) {
   switch (pallet) {
-    case PalletKind::None: return "none";
-    case PalletKind::Eur1200x800: return "eur";
-    case PalletKind::Industrial1200x1000: return "ind";
+    case PalletKind::kNone: return "none";
+    case PalletKind::kEur1200x800: return "eur";
+    case PalletKind::kIndustrial1200x1000: return "ind";
   }
   return "eur";
 }
 
 Expected<PatternFamily> parse_pattern(const std::string& text) {
-  for (PatternFamily p : {PatternFamily::Block, PatternFamily::Interlock, PatternFamily::Brick, PatternFamily::Pinwheel,
-                          PatternFamily::Chimney, PatternFamily::Mixed})
+  for (PatternFamily p : {PatternFamily::kBlock, PatternFamily::kInterlock, PatternFamily::kBrick, PatternFamily::kPinwheel,
+                          PatternFamily::kChimney, PatternFamily::kMixed})
     if (to_string(p) == text) return p;
-  if (text == "column") return PatternFamily::Block;
-  if (text == "spiral") return PatternFamily::Pinwheel;
+  if (text == "column") return PatternFamily::kBlock;
+  if (text == "spiral") return PatternFamily::kPinwheel;
   return Error{"unknown pattern '" + text + "' (block, interlock, brick, pinwheel, chimney, mixed)"};
 }
 
 Expected<RemovalMode> parse_removal(const std::string& text) {
-  for (RemovalMode m : {RemovalMode::Rows, RemovalMode::Columns, RemovalMode::Corner, RemovalMode::Random,
-                        RemovalMode::Holes, RemovalMode::Clusters})
+  for (RemovalMode m : {RemovalMode::kRows, RemovalMode::kColumns, RemovalMode::kCorner, RemovalMode::kRandom,
+                        RemovalMode::kHoles, RemovalMode::kClusters})
     if (to_string(m) == text) return m;
   return Error{"unknown removal mode '" + text + "' (rows, columns, corner, random, holes, clusters)"};
 }
 
 Expected<PalletKind> parse_pallet(const std::string& text) {
-  if (text == "none") return PalletKind::None;
-  if (text == "eur" || text == "1200x800") return PalletKind::Eur1200x800;
-  if (text == "ind" || text == "1200x1000") return PalletKind::Industrial1200x1000;
+  if (text == "none") return PalletKind::kNone;
+  if (text == "eur" || text == "1200x800") return PalletKind::kEur1200x800;
+  if (text == "ind" || text == "1200x1000") return PalletKind::kIndustrial1200x1000;
   return Error{"unknown pallet '" + text + "' (eur = 1200x800, ind = 1200x1000, none)"};
 }
 
@@ -68,15 +68,15 @@ std::uint64_t frame_seed(std::uint64_t seed, std::uint64_t index) {
 
 Expected<std::vector<SimulatedFrame>> generate_set(const SetOptions& options) {
   const std::vector<PatternFamily> patterns =
-      options.patterns.empty() ? std::vector<PatternFamily>{PatternFamily::Block, PatternFamily::Interlock,
-                                                            PatternFamily::Brick, PatternFamily::Pinwheel,
-                                                            PatternFamily::Chimney, PatternFamily::Mixed}
+      options.patterns.empty() ? std::vector<PatternFamily>{PatternFamily::kBlock, PatternFamily::kInterlock,
+                                                            PatternFamily::kBrick, PatternFamily::kPinwheel,
+                                                            PatternFamily::kChimney, PatternFamily::kMixed}
                                : options.patterns;
   const std::vector<std::string> profile_list =
       options.profiles.empty() ? std::vector<std::string>{"o3d303"} : options.profiles;
   const std::vector<RemovalMode> removals =
-      options.removals.empty() ? std::vector<RemovalMode>{RemovalMode::Rows, RemovalMode::Columns, RemovalMode::Corner,
-                                                          RemovalMode::Random, RemovalMode::Holes, RemovalMode::Clusters}
+      options.removals.empty() ? std::vector<RemovalMode>{RemovalMode::kRows, RemovalMode::kColumns, RemovalMode::kCorner,
+                                                          RemovalMode::kRandom, RemovalMode::kHoles, RemovalMode::kClusters}
                                : options.removals;
   std::vector<SensorProfile> profiles;
   for (const std::string& name : profile_list) {

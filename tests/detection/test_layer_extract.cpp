@@ -36,7 +36,7 @@ TEST_CASE("full layer on a lower layer: plane and outline match the truth") {
     const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
     const LayerResult r = run(f);
     INFO("tilt " << tilt << " reason " << r.reason);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     CHECK(normal_error_deg(r.plane_camera, f.top_plane_camera) < 0.5);
     CHECK(height_error_m(r, f.top_plane_camera) < 0.003);
     REQUIRE(r.polygons.size() == 1);
@@ -60,7 +60,7 @@ TEST_CASE("a few boxes on a full lower layer: the top is the boxes, not the domi
   const SynthFrame f = render_synthetic(few, cam, SynthNoise{});
   const LayerResult r = run(f);
   INFO(r.reason);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   CHECK(height_error_m(r, f.top_plane_camera) < 0.003);
   CHECK(r.polygons.size() == 2);  // two boxes far apart: two clusters
   CHECK(polygon_iou(r.polygons, truth_in_layer(few, f, r.T_camera_layer)) > 0.95);
@@ -70,7 +70,7 @@ TEST_CASE("a single box gives four near-orthogonal corners close to the truth") 
   const SynthScene s = single_box(0.315, 0.232, 0.4, 1.0);
   const SynthFrame f = render_synthetic(s, camera_looking_at(1.0, 25.0), SynthNoise{});
   const LayerResult r = run(f);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   REQUIRE(r.polygons.size() == 1);
   const Ring2d& ring = r.polygons[0].outer;
   REQUIRE(ring.size() == 4);
@@ -100,7 +100,7 @@ TEST_CASE("a hole 1.5 pixel pitches wide is found, clusters 30 mm apart stay apa
   ring.boxes[5].short_m -= 2 * 1.5 * pitch_m;
   const SynthFrame fr = render_synthetic(ring, cam, SynthNoise{});
   const LayerResult rr = run(fr);
-  REQUIRE(rr.status == DetectionStatus::ok);
+  REQUIRE(rr.status == DetectionStatus::kOk);
   std::size_t holes = 0;
   for (const auto& p : rr.polygons) holes += p.holes.size();
   CHECK(holes >= 1);
@@ -116,7 +116,7 @@ TEST_CASE("a hole 1.5 pixel pitches wide is found, clusters 30 mm apart stay apa
   const SynthScene two = grid_layer(2, 1, 0.030, 1.0, true);
   const SynthFrame ft = render_synthetic(two, tilted, SynthNoise{});
   const LayerResult rt = run(ft);
-  REQUIRE(rt.status == DetectionStatus::ok);
+  REQUIRE(rt.status == DetectionStatus::kOk);
   CHECK(rt.polygons.size() == 2);
 }
 
@@ -135,7 +135,7 @@ TEST_CASE("a missing box inside the layer is one hole ring with the box's area")
     const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
     const LayerResult r = run(f);
     INFO("tilt " << tilt << " reason " << r.reason);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     REQUIRE(r.polygons.size() == 1);
     REQUIRE(r.polygons[0].holes.size() == 1);
     const Ring2d& hole = r.polygons[0].holes[0];
@@ -164,7 +164,7 @@ TEST_CASE("clusters at a tilt: apart when the gap shows more than the band below
   // Band from a first look at the scene (the detector measures it from the data).
   const SynthFrame probe = render_synthetic(grid_layer(2, 1, 0.05, 1.0, true), cam, SynthNoise{});
   const LayerResult p = run(probe);
-  REQUIRE(p.status == DetectionStatus::ok);
+  REQUIRE(p.status == DetectionStatus::kOk);
   const double band = p.diagnostics.passthrough_tolerance_m;
   CHECK(band < 0.02);
   for (std::uint32_t seed = 1; seed <= 3; ++seed) {
@@ -174,7 +174,7 @@ TEST_CASE("clusters at a tilt: apart when the gap shows more than the band below
     const SynthFrame f = render_synthetic(grid_layer(2, 1, gap, 1.0, true), cam, noise);
     const LayerResult r = run(f);
     INFO("seed " << seed << " gap " << gap * 1000 << " mm, band " << band * 1000 << " mm");
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     CHECK(r.polygons.size() == 2);
   }
 }
@@ -188,7 +188,7 @@ TEST_CASE("dropouts inside faces make no border, flying pixels do not bend the o
   const SynthFrame f = render_synthetic(s, cam, noise);
   LayerTrace trace;
   const LayerResult r = run(f, &trace);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   REQUIRE(r.polygons.size() == 1);
   for (const auto& h : r.polygons[0].holes) {
     INFO("hole of " << h.size() << " vertices, area " << signed_area(h) << " m^2 at " << h[0].transpose());
@@ -207,7 +207,7 @@ TEST_CASE("same frame, same result") {
   const SynthCamera cam = camera_looking_at(1.0, 12.0);
   const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
   const LayerResult a = run(f), b = run(f);
-  REQUIRE(a.status == DetectionStatus::ok);
+  REQUIRE(a.status == DetectionStatus::kOk);
   REQUIRE(a.polygons.size() == b.polygons.size());
   CHECK(a.plane_camera.d == b.plane_camera.d);
   for (std::size_t i = 0; i < a.polygons.size(); ++i) {
@@ -225,7 +225,7 @@ TEST_CASE("bad input ends in a clear status, never a crash") {
     std::fill(f.frame.depth.begin(), f.frame.depth.end(), 0);
     rebuild_cloud(f);
     const LayerResult r = run(f);
-    CHECK(r.status == DetectionStatus::bad_frame);
+    CHECK(r.status == DetectionStatus::kBadFrame);
     CHECK_FALSE(r.reason.empty());
   }
   SECTION("NaN and absurd depths") {
@@ -235,13 +235,13 @@ TEST_CASE("bad input ends in a clear status, never a crash") {
       else f.cloud.points[i] *= 1000.0F;  // kilometres away
     }
     const LayerResult r = run(f);
-    CHECK(r.status == DetectionStatus::bad_frame);
+    CHECK(r.status == DetectionStatus::kBadFrame);
     CHECK_FALSE(r.reason.empty());
   }
   SECTION("cloud and frame disagree") {
     SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
     f.cloud.points.resize(10);
-    CHECK(run(f).status == DetectionStatus::bad_frame);
+    CHECK(run(f).status == DetectionStatus::kBadFrame);
   }
   SECTION("no plane facing the camera") {
     // A wall seen edge-on: the floor and boxes are gone, only a plane tilted 60 deg remains.
@@ -255,7 +255,7 @@ TEST_CASE("bad input ends in a clear status, never a crash") {
                                                 : Eigen::Vector3f(std::nanf(""), std::nanf(""), std::nanf(""));
       }
     const LayerResult r = run(f);
-    CHECK(r.status == DetectionStatus::no_plane);
+    CHECK(r.status == DetectionStatus::kNoPlane);
     CHECK_FALSE(r.reason.empty());
   }
   SECTION("a plane with too few points") {
@@ -264,7 +264,7 @@ TEST_CASE("bad input ends in a clear status, never a crash") {
     tiny.floor = false;
     const SynthFrame f = render_synthetic(tiny, cam, SynthNoise{});
     const LayerResult r = run(f);
-    CHECK(r.status != DetectionStatus::ok);
+    CHECK(r.status != DetectionStatus::kOk);
     CHECK_FALSE(r.reason.empty());
   }
   SECTION("layer touching the image border") {
@@ -273,19 +273,19 @@ TEST_CASE("bad input ends in a clear status, never a crash") {
     close.distance_m = 0.8;  // the 3x3 layer (0.95 x 0.7 m) overfills the view
     const SynthFrame f = render_synthetic(big, close, SynthNoise{});
     const LayerResult r = run(f);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     CHECK(r.diagnostics.touches_image_border);
     CHECK_FALSE(r.reason.empty());
     LayerParams strict;
     strict.reject_clipped = true;
     const LayerResult s = run(f, nullptr, strict);
-    CHECK(s.status == DetectionStatus::no_layer);
+    CHECK(s.status == DetectionStatus::kNoLayer);
     CHECK_FALSE(s.reason.empty());
   }
   SECTION("components smaller than the minimum are dropped") {
     SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
     const LayerResult r = extract_layer(f.frame, f.cloud, PlaneParams{}, LayerParams{}, ContourParams{}, 10.0);
-    CHECK(r.status == DetectionStatus::no_layer);
+    CHECK(r.status == DetectionStatus::kNoLayer);
     CHECK(r.diagnostics.dropped_components >= 1);
   }
 }
@@ -296,7 +296,7 @@ TEST_CASE("debug pictures: one per stage, frame sized, with something drawn") {
   const SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
   LayerTrace trace;
   const LayerResult r = run(f, &trace);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   const auto images = render_layer_debug_images(f.frame, r, trace);
   REQUIRE(images.size() == 4);
   CHECK(images[0].first == "layer_mask");

@@ -134,7 +134,7 @@ TEST_CASE("coarse pitch at a tilt: edges facing away from the camera are not pul
     const SynthFrame f = render_synthetic(s, cam, quiet);
     const LayerResult r = run(f);
     INFO("azimuth " << azimuth << " reason " << r.reason);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     REQUIRE(r.polygons.size() == 1);
     const auto truth = truth_in_layer(s, f, r.T_camera_layer);
     CHECK(polygon_iou(r.polygons, truth) > 0.96);
@@ -162,7 +162,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
   const SynthFrame full = render_synthetic(scene, cam, SynthNoise{});
   LayerTrace trace;
   const LayerResult observed = run(full, {}, &trace);
-  REQUIRE(observed.status == DetectionStatus::ok);
+  REQUIRE(observed.status == DetectionStatus::kOk);
   // 2 % random dropouts beside the outline are no unobserved outline.
   CHECK(observed.diagnostics.unobserved_outline_fraction < 0.01);
   CHECK_FALSE(observed.diagnostics.outline_along_invalid);
@@ -185,7 +185,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
       for (int u = cut; u < cam.width; ++u) f.frame.depth[static_cast<std::size_t>(v * cam.width + u)] = 0;
     rebuild_cloud(f);
     const LayerResult r = run(f);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     INFO("fraction " << r.diagnostics.unobserved_outline_fraction);
     CHECK(r.diagnostics.unobserved_outline_fraction > 0.15);
     CHECK(r.diagnostics.outline_along_invalid);
@@ -200,7 +200,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
     LayerParams strict;
     strict.reject_unobserved = true;
     const LayerResult rejected = run(f, strict);
-    CHECK(rejected.status == DetectionStatus::no_layer);
+    CHECK(rejected.status == DetectionStatus::kNoLayer);
     CHECK(rejected.reason.find("without depth") != std::string::npos);
   }
   SECTION("a strip 4 pixels wide without depth beside the layer, the lower layer seen beyond") {
@@ -213,7 +213,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
     }
     rebuild_cloud(f);
     const LayerResult r = run(f);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     INFO("fraction " << r.diagnostics.unobserved_outline_fraction);
     CHECK(r.diagnostics.unobserved_outline_fraction < 0.01);
     CHECK_FALSE(r.diagnostics.outline_along_invalid);
@@ -236,7 +236,7 @@ TEST_CASE("detect() with a workspace gives the plain call's result, frame after 
   for (const SynthFrame* f : {&a, &b, &a}) {
     const Detection plain = detect(f->frame, formats, DetectionParams{});
     const Detection reused = detect(f->frame, formats, DetectionParams{}, workspace);
-    REQUIRE(plain.status == DetectionStatus::ok);
+    REQUIRE(plain.status == DetectionStatus::kOk);
     CHECK(workspace.cloud.width == f->frame.intrinsics.width);
     CHECK(workspace.rays.matches(f->frame.intrinsics));
     CHECK(reused.status == plain.status);
@@ -251,7 +251,7 @@ TEST_CASE("detect() with a workspace gives the plain call's result, frame after 
   // The old signature still reuses a caller's ray table.
   RayTable rays;
   const Detection with_rays = detect(a.frame, formats, DetectionParams{}, &rays);
-  CHECK(with_rays.status == DetectionStatus::ok);
+  CHECK(with_rays.status == DetectionStatus::kOk);
   CHECK(rays.matches(a.frame.intrinsics));
 }
 

@@ -132,7 +132,7 @@ TEST_CASE("top plane: nearest large plane wins, a small stray in front does not"
   cam.look_at = Eigen::Vector3d(0, 0, 1.0);
   const SynthFrame f = render_synthetic(s, cam, SynthNoise{});
   const layer::TopPlane top = layer::find_top_plane(f.cloud, f.frame.intrinsics, PlaneParams{});
-  REQUIRE(top.status == DetectionStatus::ok);
+  REQUIRE(top.status == DetectionStatus::kOk);
   CHECK(std::abs(top.plane.d - f.top_plane_camera.d) < 0.003);
   CHECK(top.plane.normal.dot(f.top_plane_camera.normal) > std::cos(0.5 * kPi / 180.0));
   CHECK(top.sigma_m < 0.004);
@@ -141,7 +141,7 @@ TEST_CASE("top plane: nearest large plane wins, a small stray in front does not"
     PlaneParams seeded;
     seeded.seed = seed;
     const layer::TopPlane other = layer::find_top_plane(f.cloud, f.frame.intrinsics, seeded);
-    REQUIRE(other.status == DetectionStatus::ok);
+    REQUIRE(other.status == DetectionStatus::kOk);
     CHECK(std::abs(other.plane.d - f.top_plane_camera.d) < 0.003);
   }
 }
@@ -165,7 +165,7 @@ TEST_CASE("noise per depth: the band widens where the measured noise does") {
     p *= 1.0F + sigma * g(rng) / p.z();          // along the ray
   }
   const layer::TopPlane top = layer::find_top_plane(f.cloud, f.frame.intrinsics, PlaneParams{});
-  REQUIRE(top.status == DetectionStatus::ok);
+  REQUIRE(top.status == DetectionStatus::kOk);
   REQUIRE(top.noise.bin_z_m.size() >= 2);
   const double z_near = top.noise.bin_z_m.front(), z_far = top.noise.bin_z_m.back();
   REQUIRE(z_far - z_near > 0.2);

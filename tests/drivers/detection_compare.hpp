@@ -72,7 +72,7 @@ inline void require_same_detection(const Detection& through_driver, const Detect
   INFO("boxes " << through_driver.boxes.size() << " vs " << through_replay.boxes.size() << "; centre "
                 << d.center_m * 1000.0 << " mm, axis " << d.axis_deg << " deg, normal " << d.normal_deg
                 << " deg, size " << d.size_m * 1000.0 << " mm");
-  REQUIRE(through_replay.status == DetectionStatus::ok);
+  REQUIRE(through_replay.status == DetectionStatus::kOk);
   REQUIRE(!through_replay.boxes.empty());
   CHECK(d.same_status);
   REQUIRE(d.same_count);

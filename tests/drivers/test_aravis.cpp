@@ -291,7 +291,7 @@ TEST_CASE("aravis refuses a camera whose serial differs from the configured one"
   REQUIRE_FALSE(opened.ok());
   CHECK(opened.error().find("OTHER42") != std::string::npos);
   CHECK(opened.error().find("PD3D01") != std::string::npos);
-  CHECK(cam->state() == CameraState::closed);
+  CHECK(cam->state() == CameraState::kClosed);
 }
 
 TEST_CASE("aravis camera stopped and restarted mid-stream: the supervisor reconnects") {
@@ -309,7 +309,7 @@ TEST_CASE("aravis camera stopped and restarted mid-stream: the supervisor reconn
   bool faulted = false;
   for (int i = 0; i < 40 && !faulted; ++i) {
     auto f = sup.grab(milliseconds(250));
-    faulted = !f.ok() && sup.state() != CameraState::streaming;
+    faulted = !f.ok() && sup.state() != CameraState::kStreaming;
   }
   REQUIRE(faulted);
   CHECK_FALSE(sup.camera_ok());

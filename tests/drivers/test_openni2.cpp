@@ -202,7 +202,7 @@ OpenNI2Options device_options(const std::string& uri, double unit_m = 0.001) {
 TEST_CASE("openni2: the test device through the runtime gives the source frames in mm - with IR") {
   Source src(1);
   OpenNI2Camera cam(device_options(src.uri()));
-  REQUIRE(cam.state() == CameraState::closed);
+  REQUIRE(cam.state() == CameraState::kClosed);
   Status opened = cam.open();
   INFO(opened.error());
   REQUIRE(opened.ok());
@@ -231,7 +231,7 @@ TEST_CASE("openni2: the test device through the runtime gives the source frames 
   CHECK(cam.counters().frames == 8);
   REQUIRE(cam.stop().ok());
   cam.close();
-  CHECK(cam.state() == CameraState::closed);
+  CHECK(cam.state() == CameraState::kClosed);
   (void)idx;
 }
 
@@ -277,7 +277,7 @@ TEST_CASE("openni2: errors are values naming what failed") {
     Status st = cam.open();
     CHECK_FALSE(st.ok());
     CHECK(st.error().find("/no/such/folder") != std::string::npos);
-    CHECK(cam.state() == CameraState::closed);
+    CHECK(cam.state() == CameraState::kClosed);
     CHECK_FALSE(cam.grab(milliseconds(10)).ok());
   }
   {
@@ -354,7 +354,7 @@ TEST_CASE("openni2: frames recorded to .oni with openni::Recorder play back thro
   }
   CHECK(static_cast<int>(pass.size() + cam.counters().drops) == in_file);
   CHECK(cam.frames_without_ir() == 0);
-  CHECK(cam.state() == CameraState::streaming);  // the end of a recording is no fault
+  CHECK(cam.state() == CameraState::kStreaming);  // the end of a recording is no fault
   cam.close();
 
   // Looping: the file is reopened at its end and plays from its first frame again.

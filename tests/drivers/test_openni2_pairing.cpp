@@ -30,8 +30,8 @@ TEST_CASE("openni2 pairing: newest depth frame, its IR by timestamp, bounded wai
 
   SECTION("a slow consumer: the newest depth frame and its own IR out of several") {
     for (int n = 0; n < 3; ++n) {
-      p.push(Pairing::Stream::depth, entry(n * kPeriod, n + 1));
-      p.push(Pairing::Stream::ir, entry(n * kPeriod + 40, n + 1));  // IR a little later
+      p.push(Pairing::Stream::kDepth, entry(n * kPeriod, n + 1));
+      p.push(Pairing::Stream::kIr, entry(n * kPeriod + 40, n + 1));  // IR a little later
     }
     auto d = p.take_depth(steady_clock::now());
     REQUIRE(d);
@@ -45,9 +45,9 @@ TEST_CASE("openni2 pairing: newest depth frame, its IR by timestamp, bounded wai
     CHECK(p.sizes().second == 0u);  // the older IR frames can pair with nothing later
   }
   SECTION("the nearest IR frame within half a period") {
-    p.push(Pairing::Stream::ir, entry(1000 * kPeriod - 15000, 1));
-    p.push(Pairing::Stream::ir, entry(1000 * kPeriod + 2000, 2));
-    p.push(Pairing::Stream::ir, entry(1000 * kPeriod + 16000, 3));
+    p.push(Pairing::Stream::kIr, entry(1000 * kPeriod - 15000, 1));
+    p.push(Pairing::Stream::kIr, entry(1000 * kPeriod + 2000, 2));
+    p.push(Pairing::Stream::kIr, entry(1000 * kPeriod + 16000, 3));
     auto ir = p.take_ir_partner(1000 * kPeriod, kHalf, steady_clock::now());
     REQUIRE(ir);
     CHECK(*ir->frame == 2);
@@ -56,7 +56,7 @@ TEST_CASE("openni2 pairing: newest depth frame, its IR by timestamp, bounded wai
   SECTION("an IR frame still on its way is waited for") {
     std::thread late([&] {
       std::this_thread::sleep_for(milliseconds(50));
-      p.push(Pairing::Stream::ir, entry(5 * kPeriod - 100, 6));
+      p.push(Pairing::Stream::kIr, entry(5 * kPeriod - 100, 6));
     });
     auto ir = p.take_ir_partner(5 * kPeriod, kHalf, steady_clock::now() + milliseconds(5000));
     late.join();
@@ -64,7 +64,7 @@ TEST_CASE("openni2 pairing: newest depth frame, its IR by timestamp, bounded wai
     CHECK(*ir->frame == 6);
   }
   SECTION("IR already past the depth frame's instant: none, without waiting") {
-    p.push(Pairing::Stream::ir, entry(7 * kPeriod, 8));
+    p.push(Pairing::Stream::kIr, entry(7 * kPeriod, 8));
     const auto t0 = steady_clock::now();
     CHECK_FALSE(p.take_ir_partner(6 * kPeriod, kHalf, t0 + milliseconds(2000)));
     CHECK(steady_clock::now() - t0 < milliseconds(1000));
@@ -78,8 +78,8 @@ TEST_CASE("openni2 pairing: newest depth frame, its IR by timestamp, bounded wai
   }
   SECTION("each ring keeps its newest frames up to its capacity; clear() empties both") {
     for (int n = 0; n < 7; ++n) {
-      p.push(Pairing::Stream::depth, entry(n * kPeriod, n + 1));
-      p.push(Pairing::Stream::ir, entry(n * kPeriod, n + 1));
+      p.push(Pairing::Stream::kDepth, entry(n * kPeriod, n + 1));
+      p.push(Pairing::Stream::kIr, entry(n * kPeriod, n + 1));
     }
     CHECK(p.sizes() == std::make_pair(std::size_t{4}, std::size_t{4}));
     auto ir = p.take_ir_partner(2 * kPeriod, kHalf, steady_clock::now());

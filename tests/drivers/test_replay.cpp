@@ -46,7 +46,7 @@ TEST_CASE("camera state machine refuses out-of-order calls and the constructor d
   c.replay.directory = (dir.path() / "later").string();
   auto cam = make_camera(c);
   REQUIRE(cam);
-  CHECK(cam->state() == CameraState::closed);
+  CHECK(cam->state() == CameraState::kClosed);
   CHECK_FALSE(cam->start().ok());
   CHECK_FALSE(cam->grab(milliseconds(1)).ok());
   CHECK(cam->last_error().find("closed") != std::string::npos);
@@ -54,20 +54,20 @@ TEST_CASE("camera state machine refuses out-of-order calls and the constructor d
   Status opened = cam->open();
   CHECK_FALSE(opened.ok());
   CHECK(opened.error().find("later") != std::string::npos);  // names the missing folder
-  CHECK(cam->state() == CameraState::closed);
+  CHECK(cam->state() == CameraState::kClosed);
 
   std::filesystem::create_directories(dir.path() / "later");
   REQUIRE(write_frame((dir.path() / "later" / "f0").string(), synthetic_frame(16, 12, 3)).ok());
   REQUIRE(cam->open().ok());
-  CHECK(cam->state() == CameraState::open);
+  CHECK(cam->state() == CameraState::kOpen);
   CHECK_FALSE(cam->open().ok());  // already open
   CHECK_FALSE(cam->grab(milliseconds(1)).ok());
   REQUIRE(cam->start().ok());
-  CHECK(cam->state() == CameraState::streaming);
+  CHECK(cam->state() == CameraState::kStreaming);
   REQUIRE(cam->stop().ok());
-  CHECK(cam->state() == CameraState::open);
+  CHECK(cam->state() == CameraState::kOpen);
   cam->close();
-  CHECK(cam->state() == CameraState::closed);
+  CHECK(cam->state() == CameraState::kClosed);
   CHECK(cam->identity().driver == "replay");
 }
 
@@ -85,7 +85,7 @@ TEST_CASE("factory rejects unknown drivers and impossible configurations") {
   auto cam = make_camera(c);
   REQUIRE(cam);
   CHECK(cam->identity().address == "192.0.2.10");
-  CHECK(cam->state() == CameraState::closed);
+  CHECK(cam->state() == CameraState::kClosed);
 }
 
 TEST_CASE("replay plays frames in name order, one per trigger, and loops") {
@@ -130,7 +130,7 @@ TEST_CASE("replay once ends with an error, a set rate paces frames") {
   auto end = cam->grab(milliseconds(1000));
   REQUIRE_FALSE(end.ok());
   CHECK(end.error().find("end of recording") != std::string::npos);
-  CHECK(cam->state() == CameraState::streaming);  // the end is not a fault
+  CHECK(cam->state() == CameraState::kStreaming);  // the end is not a fault
 }
 
 TEST_CASE("a bad frame file fails its grab naming the file, the next grab goes on") {
@@ -149,7 +149,7 @@ TEST_CASE("a bad frame file fails its grab naming the file, the next grab goes o
   auto bad = cam->grab(milliseconds(200));
   REQUIRE_FALSE(bad.ok());
   CHECK(bad.error().find((dir.path() / "b").string()) != std::string::npos);
-  CHECK(cam->state() == CameraState::streaming);
+  CHECK(cam->state() == CameraState::kStreaming);
   REQUIRE(cam->software_trigger().ok());
   auto c = cam->grab(milliseconds(200));
   REQUIRE(c.ok());
@@ -216,7 +216,7 @@ TEST_CASE("supervisor reconnects a replay camera after its folder is removed and
 
   REQUIRE(sup.grab(milliseconds(500)).ok());
   CHECK(sup.camera_ok());
-  CHECK(sup.state() == CameraState::streaming);
+  CHECK(sup.state() == CameraState::kStreaming);
 
   std::filesystem::rename(frames_dir, hidden_dir);  // the "camera" goes away
   auto lost = sup.grab(milliseconds(200));

@@ -129,17 +129,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (seconds > 20.0) fail("detect() took " + std::to_string(seconds) + " s of processor time");
 
   switch (d.status) {
-    case DetectionStatus::ok:
-    case DetectionStatus::no_plane:
-    case DetectionStatus::no_layer:
-    case DetectionStatus::no_layout:
-    case DetectionStatus::bad_frame:
+    case DetectionStatus::kOk:
+    case DetectionStatus::kNoPlane:
+    case DetectionStatus::kNoLayer:
+    case DetectionStatus::kNoLayout:
+    case DetectionStatus::kBadFrame:
       break;
     default:
       fail("detect() returned no valid status");
   }
-  if (d.status != DetectionStatus::ok && d.message.empty()) fail(std::string("status ") + to_string(d.status) + " without a message");
-  if (d.status == DetectionStatus::ok) {
+  if (d.status != DetectionStatus::kOk && d.message.empty()) fail(std::string("status ") + to_string(d.status) + " without a message");
+  if (d.status == DetectionStatus::kOk) {
     if (d.boxes.empty()) fail("status ok without boxes");
     for (const DetectedBox& b : d.boxes) {
       if (!b.center.allFinite() || !b.long_axis.allFinite() || !b.normal.allFinite() ||

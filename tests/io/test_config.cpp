@@ -42,7 +42,7 @@ TEST_CASE("an empty configuration gives the defaults") {
   CHECK_FALSE(empty.T_base_camera.has_value());
   CHECK(empty.formats.empty());
   CHECK(empty.recipes.empty());
-  CHECK(empty.detection.pick_order == PickOrder::far_corner_first);
+  CHECK(empty.detection.pick_order == PickOrder::kFarCornerFirst);
   const Config comments = parse_config("# nothing but a comment\n", "c.yaml");
   CHECK(config_differences(comments, Config{}).empty());
   const Config empty_sections = parse_config("camera:\nmodbus:\ndetection:\n", "s.yaml");
@@ -61,7 +61,7 @@ TEST_CASE("config_differences names the keys that differ") {
   CHECK(diffs == expected);
   CHECK(changed.modbus.port == 1502);
   CHECK(changed.detection.plane.max_tilt_deg == 20.0);
-  CHECK(changed.detection.pick_order == PickOrder::row_major);
+  CHECK(changed.detection.pick_order == PickOrder::kRowMajor);
 }
 
 TEST_CASE("config/palletd.yaml parses and equals the defaults") {
@@ -154,8 +154,8 @@ recording: {enabled: true, directory: rec, max_bytes: 1048576, every_trigger: tr
   CHECK(c.recipes[0].formats == std::vector<int>{1, 0});
   CHECK(c.detection.layer.passthrough_tolerance_m == 0.015);
   CHECK(c.detection.contour.d_max_m == 0.02);
-  CHECK(c.detection.layout.search == SearchMode::paper);
-  CHECK(c.detection.layout.time_budget_ms == 120.0);
+  CHECK(c.detection.layout.search.mode == SearchMode::kPaper);
+  CHECK(c.detection.layout.search.time_budget_ms == 120.0);
   CHECK(c.modbus.bind_address == "::1");
   CHECK(c.modbus.unit_id == 0);
   CHECK(c.modbus.low_word_first);

@@ -14,7 +14,7 @@ namespace {
 
 Detection sample_detection() {
   Detection d;
-  d.status = DetectionStatus::ok;
+  d.status = DetectionStatus::kOk;
   d.timing_ms = {{"total", 12.5}, {"plane", 3.25}, {"layout", 7.0}};
   d.plane_camera.normal = Eigen::Vector3d(0.0, 0.0, -1.0);
   d.plane_camera.d = 1.42;
@@ -106,7 +106,7 @@ TEST_CASE("detection line round trip through the parser") {
 
 TEST_CASE("a failed frame still makes a complete line") {
   Detection d;
-  d.status = DetectionStatus::no_plane;
+  d.status = DetectionStatus::kNoPlane;
   d.message = "no plane within 35 degrees of the view axis";
   d.timing_ms["total"] = 4.0;
   const std::string line = detection_to_json_line(d, "f \"quoted\"");

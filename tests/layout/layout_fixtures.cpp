@@ -217,7 +217,7 @@ std::vector<Eigen::Vector2f> layer_points(const KnownLayout& l, double pitch_m) 
   return out;
 }
 
-double match_error(const std::vector<Box2d>& truth, const std::vector<Box2d>& found) {
+double match_error_boxes(const std::vector<Box2d>& truth, const std::vector<Box2d>& found) {
   if (truth.size() != found.size()) return -1.0;
   std::vector<bool> used(found.size(), false);
   double worst = 0;
@@ -248,7 +248,7 @@ RefineInput packed_block_input(const Rect2d& outline, int cols, int rows, const 
                                const Eigen::Vector2d& origin_m, double cell_m,
                                const std::function<float(const SeamCell&)>& seam_share) {
   RefineInput in;
-  in.layer.status = DetectionStatus::ok;
+  in.layer.status = DetectionStatus::kOk;
   const Ring2d rectangle{{outline.x0, outline.y0}, {outline.x1, outline.y0}, {outline.x1, outline.y1},
                          {outline.x0, outline.y1}};
   in.layer.polygons.push_back(PolygonWithHoles{rectangle, {}});
@@ -270,7 +270,7 @@ RefineInput packed_block_input(const Rect2d& outline, int cols, int rows, const 
     }
   }
   ev.strength = static_cast<double>(seamy) / static_cast<double>(ev.seam.size());
-  in.found.status = DetectionStatus::ok;
+  in.found.status = DetectionStatus::kOk;
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
       Box2d b;
@@ -280,9 +280,7 @@ RefineInput packed_block_input(const Rect2d& outline, int cols, int rows, const 
       b.long_m = nominal.long_m;
       b.short_m = nominal.short_m;
       b.format = 0;
-      in.found.boxes.push_back(b);
-      in.found.box_component.push_back(0);
-      in.found.box_scores.push_back(1.0);
+      in.found.boxes.push_back({b, 1.0, 0, false});
     }
   }
   return in;

@@ -43,7 +43,12 @@ std::vector<Eigen::Vector2f> layer_points(const KnownLayout& layout, double pitc
 
 /// Largest centre error [m] over the truth boxes when every truth box has a found twin with the
 /// same format and orientation (within 2 deg) and the counts match; a negative value otherwise.
-double match_error(const std::vector<Box2d>& truth, const std::vector<Box2d>& found);
+double match_error_boxes(const std::vector<Box2d>& truth, const std::vector<Box2d>& found);
+/// The same for any boxes that are Box2d (truth boxes, LayoutBox).
+template <typename T, typename F>
+double match_error(const std::vector<T>& truth, const std::vector<F>& found) {
+  return match_error_boxes(std::vector<Box2d>(truth.begin(), truth.end()), std::vector<Box2d>(found.begin(), found.end()));
+}
 
 /// Axis-aligned rectangle in the layer frame [m].
 struct Rect2d {

@@ -18,7 +18,7 @@ namespace {
 
 constexpr double kNoCap = std::numeric_limits<double>::infinity();  ///< absent seams uncapped
 
-bool same_boxes(const std::vector<Box2d>& a, const std::vector<Box2d>& b) {
+bool same_boxes(const std::vector<LayoutBox>& a, const std::vector<LayoutBox>& b) {
   if (a.size() != b.size()) return false;
   for (std::size_t i = 0; i < a.size(); ++i) {
     if (a[i].center != b[i].center || a[i].yaw_rad != b[i].yaw_rad || a[i].format != b[i].format) return false;
@@ -54,8 +54,8 @@ TEST_CASE("the expansion budget gives the same result twice, whatever the clock"
   const KnownLayout l = grid_200x150(40);
   const auto outline = perturb(union_outline(l), 0.002, 0.0, 3U);
   LayoutParams p;
-  p.time_budget_ms = 60000.0;  // the clock never decides here
-  p.search_expansions = 30;    // far too small for 40 boxes
+  p.search.time_budget_ms = 60000.0;  // the clock never decides here
+  p.search.search_expansions = 30;    // far too small for 40 boxes
   const LayoutResult a = find_layout(outline, l.formats, p, nullptr);
   const LayoutResult b = find_layout(outline, l.formats, p, nullptr);
   CHECK(a.budget_exhausted);
@@ -65,7 +65,7 @@ TEST_CASE("the expansion budget gives the same result twice, whatever the clock"
   CHECK(same_boxes(a.boxes, b.boxes));
 
   LayoutParams full;
-  full.time_budget_ms = 60000.0;
+  full.search.time_budget_ms = 60000.0;
   const LayoutResult c = find_layout(outline, l.formats, full, nullptr);
   CHECK_FALSE(c.budget_exhausted);  // the default finishes a 40-box layer
   CHECK(c.hypotheses_visited > a.hypotheses_visited);
@@ -115,14 +115,14 @@ TEST_CASE("mixed formats: the seams decide between a box and two of the other fo
   const KnownLayout l = mixed_rows();
   const auto outline = union_outline(l);
   LayoutParams p;
-  p.time_budget_ms = 60000.0;
+  p.search.time_budget_ms = 60000.0;
   const LayoutResult plain = find_layout(outline, l.formats, p, nullptr);
-  REQUIRE(plain.status == DetectionStatus::ok);
+  REQUIRE(plain.status == DetectionStatus::kOk);
   CHECK(plain.ambiguous);  // the outline cannot tell
 
   const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
   const LayoutResult a = find_layout(outline, l.formats, p, &seams);
-  REQUIRE(a.status == DetectionStatus::ok);
+  REQUIRE(a.status == DetectionStatus::kOk);
   CHECK_FALSE(a.ambiguous);
   CHECK(match_error(truth_boxes(l), a.boxes) >= 0.0);
   CHECK(match_error(truth_boxes(l), a.boxes) < 0.005);
@@ -134,7 +134,7 @@ TEST_CASE("mixed formats: the seams decide between a box and two of the other fo
                    {0.8, 0.3, 0, true}};
   const SeamEvidence seams2 = synthetic_seams(swapped, 0.003, 0.002);
   const LayoutResult b = find_layout(outline, l.formats, p, &seams2);
-  REQUIRE(b.status == DetectionStatus::ok);
+  REQUIRE(b.status == DetectionStatus::kOk);
   CHECK_FALSE(b.ambiguous);
   CHECK(match_error(truth_boxes(swapped), b.boxes) >= 0.0);
 }
@@ -147,18 +147,18 @@ TEST_CASE("mixed formats: a seam missing along an axis without reference seams i
   KnownLayout two{"two A", formats, {{0.0, 0.0, 0, true}, {0.0, 0.4, 0, true}}, 0.2, Eigen::Vector2d::Zero(), 0.0};
   const auto outline = union_outline(four);
   LayoutParams p;
-  p.time_budget_ms = 60000.0;
+  p.search.time_budget_ms = 60000.0;
   // Both seams visible: the four boxes.
   const SeamEvidence both = synthetic_seams(four, 0.003, 0.002);
   const LayoutResult a = find_layout(outline, formats, p, &both);
-  REQUIRE(a.status == DetectionStatus::ok);
+  REQUIRE(a.status == DetectionStatus::kOk);
   CHECK_FALSE(a.ambiguous);
   CHECK(match_error(truth_boxes(four), a.boxes) >= 0.0);
   // Only the seam across the middle: the vertical seams may be pressed shut (no vertical seam
   // anywhere to compare with), so the layer is flagged, whichever layout is returned.
   const SeamEvidence middle = synthetic_seams(two, 0.003, 0.002);
   const LayoutResult b = find_layout(outline, formats, p, &middle);
-  REQUIRE(b.status == DetectionStatus::ok);
+  REQUIRE(b.status == DetectionStatus::kOk);
   CHECK(b.ambiguous);
 }
 

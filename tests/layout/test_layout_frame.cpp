@@ -48,7 +48,7 @@ Scene render(const KnownLayout& l, bool gaps_visible, bool with_intensity = fals
     s.frame.intensity.assign(s.frame.pixel_count(), 300);  // dark gaps and floor
     s.frame.intensity_bits = 16;
   }
-  s.layer.status = DetectionStatus::ok;
+  s.layer.status = DetectionStatus::kOk;
   s.layer.plane_camera.normal = Eigen::Vector3d(0, 0, -1);
   s.layer.plane_camera.d = 1.5;
   Eigen::Matrix3d R;
@@ -127,9 +127,9 @@ KnownLayout centred_pinwheel(bool mirrored) {
 /// max_err_m of the truth; returns it for further checks.
 LayoutResult solve_unflagged(const KnownLayout& l, const Scene& s, double max_err_m) {
   LayoutParams p;
-  p.time_budget_ms = 500;
+  p.search.time_budget_ms = 500;
   const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   CHECK_FALSE(r.ambiguous);
   const double err = match_error(truth_boxes(l), r.boxes);
   CHECK(err >= 0.0);
@@ -156,7 +156,7 @@ TEST_CASE("seam evidence from depth marks the gaps between boxes, not the box to
   const SeamEvidence none = build_seam_evidence(flat.frame, flat.cloud, flat.layer);
   CHECK(none.strength < 0.002);
   LayerResult bad = s.layer;
-  bad.status = DetectionStatus::no_plane;
+  bad.status = DetectionStatus::kNoPlane;
   CHECK(build_seam_evidence(s.frame, s.cloud, bad).empty());
 }
 
@@ -166,7 +166,7 @@ TEST_CASE("solve_layout resolves pinwheel chirality from depth seams and refines
     const Scene s = render(l, true);
     const LayoutResult r = solve_unflagged(l, s, 0.003);
     CHECK(r.coverage > 0.95);
-    for (double sc : r.box_scores) CHECK(sc > 0.6);
+    for (const LayoutBox& b : r.boxes) CHECK(b.score > 0.6);
   }
 }
 
@@ -174,20 +174,20 @@ TEST_CASE("solve_layout flags the pinwheel ambiguous when the gaps are invisible
   const KnownLayout l = centred_pinwheel(false);
   const Scene s = render(l, false);
   LayoutParams p;
-  p.time_budget_ms = 500;
+  p.search.time_budget_ms = 500;
   const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   CHECK(r.ambiguous);
 }
 
 TEST_CASE("dark lines in the intensity alone resolve the pinwheel when depth shows no gap") {
   LayoutParams p;
-  p.time_budget_ms = 500;
+  p.search.time_budget_ms = 500;
   for (bool mirrored : {false, true}) {
     const KnownLayout l = centred_pinwheel(mirrored);
     const Scene s = render(l, false, true);
     const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, l.formats, p);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     CHECK_FALSE(r.ambiguous);
     CHECK(match_error(truth_boxes(l), r.boxes) >= 0.0);
   }

@@ -30,11 +30,11 @@ PolygonWithHoles disc(double r, int n) {
 }  // namespace
 
 TEST_CASE("formats larger than the layer: no_layout with a reason") {
-  for (SearchMode mode : {SearchMode::product, SearchMode::paper}) {
+  for (SearchMode mode : {SearchMode::kBestFirst, SearchMode::kPaper}) {
     LayoutParams p;
-    p.search = mode;
+    p.search.mode = mode;
     const LayoutResult r = find_layout({rectangle(0.5, 0.4)}, {{0.6, 0.5, "big"}}, p, nullptr);
-    CHECK(r.status == DetectionStatus::no_layout);
+    CHECK(r.status == DetectionStatus::kNoLayout);
     CHECK_FALSE(r.reason.empty());
     CHECK(r.boxes.empty());
   }
@@ -44,19 +44,19 @@ TEST_CASE("zero, negative or swapped sizes: no_layout naming the format") {
   for (const BoxFormat& f : {BoxFormat{0.0, 0.2, "zero"}, BoxFormat{0.3, -0.2, "negative"},
                              BoxFormat{0.2, 0.3, "swapped"}, BoxFormat{NAN, 0.2, "nan"}}) {
     const LayoutResult r = find_layout({rectangle(1.2, 0.8)}, {f}, LayoutParams{}, nullptr);
-    CHECK(r.status == DetectionStatus::no_layout);
+    CHECK(r.status == DetectionStatus::kNoLayout);
     CHECK(r.reason.find(f.name) != std::string::npos);
   }
   const LayoutResult none = find_layout({rectangle(1.2, 0.8)}, {}, LayoutParams{}, nullptr);
-  CHECK(none.status == DetectionStatus::no_layout);
+  CHECK(none.status == DetectionStatus::kNoLayout);
 }
 
 TEST_CASE("an outline without orthogonal corners: no_layout") {
-  for (SearchMode mode : {SearchMode::product, SearchMode::paper}) {
+  for (SearchMode mode : {SearchMode::kBestFirst, SearchMode::kPaper}) {
     LayoutParams p;
-    p.search = mode;
+    p.search.mode = mode;
     const LayoutResult r = find_layout({disc(0.5, 48)}, {{0.3, 0.2, "A"}}, p, nullptr);
-    CHECK(r.status == DetectionStatus::no_layout);
+    CHECK(r.status == DetectionStatus::kNoLayout);
     CHECK(r.reason.find("orthogonal corner") != std::string::npos);
   }
 }
@@ -65,9 +65,9 @@ TEST_CASE("boxes that match no recipe format: no_layout") {
   // A layer of 400 x 300 boxes searched with a 500 x 330 recipe.
   const auto outline = union_outline(block(3, 3, 0.4, 0.3));
   LayoutParams p;
-  p.time_budget_ms = 500;
+  p.search.time_budget_ms = 500;
   const LayoutResult r = find_layout(outline, {{0.5, 0.33, "wrong"}}, p, nullptr);
-  CHECK(r.status == DetectionStatus::no_layout);
+  CHECK(r.status == DetectionStatus::kNoLayout);
   CHECK(r.reason.find("match no recipe format") != std::string::npos);
 }
 
@@ -75,16 +75,16 @@ TEST_CASE("the search ends within its budget and flags it") {
   // A noisy 40-box layer without seams, and a budget far too small to finish.
   const KnownLayout l = grid_200x150(40);
   const auto outline = perturb(union_outline(l), 0.002, 0.0, 3U);
-  for (SearchMode mode : {SearchMode::product, SearchMode::paper}) {
+  for (SearchMode mode : {SearchMode::kBestFirst, SearchMode::kPaper}) {
     LayoutParams p;
-    p.search = mode;
-    p.time_budget_ms = 1.0;
-    p.paper_max_hypotheses = 100000000;
+    p.search.mode = mode;
+    p.search.time_budget_ms = 1.0;
+    p.search.paper_max_hypotheses = 100000000;
     const auto t0 = std::chrono::steady_clock::now();
     const LayoutResult r = find_layout(outline, l.formats, p, nullptr);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     CHECK(ms < 1000.0);  // termination, not speed: the budget is 1 ms
-    if (mode == SearchMode::paper) CHECK(r.budget_exhausted);
+    if (mode == SearchMode::kPaper) CHECK(r.budget_exhausted);
   }
 }
 
@@ -93,10 +93,9 @@ TEST_CASE("several components are solved each alone") {
   const auto outline = union_outline(l);
   REQUIRE(outline.size() == 3);
   const LayoutResult r = find_layout(outline, l.formats, LayoutParams{}, nullptr);
-  REQUIRE(r.status == DetectionStatus::ok);
-  REQUIRE(r.box_component.size() == r.boxes.size());
+  REQUIRE(r.status == DetectionStatus::kOk);
   std::vector<int> per(3, 0);
-  for (int c : r.box_component) ++per[static_cast<std::size_t>(c)];
+  for (const LayoutBox& b : r.boxes) ++per[static_cast<std::size_t>(b.component)];
   std::sort(per.begin(), per.end());
   CHECK(per == std::vector<int>{1, 2, 3});
 }
@@ -110,13 +109,13 @@ TEST_CASE("refinement moves boxes onto the measured outline and seams") {
   const auto outline = union_outline(l);
   const SeamEvidence seams = synthetic_seams(l, 0.002, 0.0015);
   LayoutParams p;
-  p.time_budget_ms = 500;
+  p.search.time_budget_ms = 500;
   const LayoutResult found = find_layout(outline, l.formats, p, &seams);
-  REQUIRE(found.status == DetectionStatus::ok);
+  REQUIRE(found.status == DetectionStatus::kOk);
   const double before = match_error(truth_boxes(l), found.boxes);
   REQUIRE(before >= 0.0);
   LayerResult layer;
-  layer.status = DetectionStatus::ok;
+  layer.status = DetectionStatus::kOk;
   layer.polygons = outline;
   layer.points_2d = layer_points(l, 0.0025);
   const LayoutResult refined = refine_layout(found, layer, l.formats, &seams, p);
@@ -124,7 +123,7 @@ TEST_CASE("refinement moves boxes onto the measured outline and seams") {
   REQUIRE(after >= 0.0);
   CHECK(after < 0.002);
   CHECK(after < before);
-  for (double s : refined.box_scores) CHECK(s > 0.5);
+  for (const LayoutBox& b : refined.boxes) CHECK(b.score > 0.5);
 }
 
 TEST_CASE("per-box scores drop for a box crossed by a seam") {
@@ -136,17 +135,18 @@ TEST_CASE("per-box scores drop for a box crossed by a seam") {
   const auto outline = union_outline(truth);
   LayoutParams p;
   const LayoutResult good = find_layout(outline, truth.formats, p, &seams);
-  REQUIRE(good.status == DetectionStatus::ok);
+  REQUIRE(good.status == DetectionStatus::kOk);
   LayoutResult wrong = good;
-  wrong.boxes = truth_boxes(mirror);
+  wrong.boxes.clear();
+  for (const Box2d& b : truth_boxes(mirror)) wrong.boxes.push_back({b, 0.0, 0, false});
   LayerResult layer;
-  layer.status = DetectionStatus::ok;
+  layer.status = DetectionStatus::kOk;
   layer.polygons = outline;
-  p.refine_size_tolerance_m = 0.0;
+  p.refine.size_tolerance_m = 0.0;
   const LayoutResult rescored = refine_layout(wrong, layer, truth.formats, &seams, p);
   double good_min = 1, wrong_max = 0;
-  for (double s : good.box_scores) good_min = std::min(good_min, s);
-  for (double s : rescored.box_scores) wrong_max = std::max(wrong_max, s);
+  for (const LayoutBox& b : good.boxes) good_min = std::min(good_min, b.score);
+  for (const LayoutBox& b : rescored.boxes) wrong_max = std::max(wrong_max, b.score);
   CHECK(good_min > 0.8);
   CHECK(wrong_max < good_min);
 }

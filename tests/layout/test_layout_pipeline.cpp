@@ -49,19 +49,19 @@ SeamEvidence noisy_seams(const KnownLayout& l, const Box2d& label_box, unsigned 
 
 TEST_CASE("a noisy seam raster does not change an outline-determined layout") {
   LayoutParams p;
-  p.time_budget_ms = 2000.0;
+  p.search.time_budget_ms = 2000.0;
   for (const KnownLayout& l : {block(3, 2, 0.6, 0.4), l_shaped(), clusters()}) {
     INFO(l.name);
     const std::vector<PolygonWithHoles> outline = union_outline(l);
     const LayoutResult plain = find_layout(outline, l.formats, p, nullptr);
-    REQUIRE(plain.status == DetectionStatus::ok);
+    REQUIRE(plain.status == DetectionStatus::kOk);
     REQUIRE_FALSE(plain.ambiguous);
     const std::vector<Box2d> truth = truth_boxes(l);
     REQUIRE(match_error(truth, plain.boxes) >= 0.0);
     for (unsigned seed : {1u, 2u, 3u}) {
       const SeamEvidence seams = noisy_seams(l, truth[seed % truth.size()], seed);
       const LayoutResult r = find_layout(outline, l.formats, p, &seams);
-      REQUIRE(r.status == DetectionStatus::ok);
+      REQUIRE(r.status == DetectionStatus::kOk);
       CHECK_FALSE(r.ambiguous);
       CHECK(r.boxes.size() == truth.size());
       CHECK(match_error(truth, r.boxes) >= 0.0);
@@ -73,7 +73,7 @@ TEST_CASE("a noisy seam raster does not change an outline-determined layout") {
 
 TEST_CASE("noisy seams still resolve layouts the outline cannot") {
   LayoutParams p;
-  p.time_budget_ms = 2000.0;
+  p.search.time_budget_ms = 2000.0;
   unsigned seed = 5;
   for (const KnownLayout& l : {pinwheel(0.4, 0.3, false), pinwheel(0.4, 0.3, true), brick()}) {
     INFO(l.name);
@@ -81,7 +81,7 @@ TEST_CASE("noisy seams still resolve layouts the outline cannot") {
     const std::vector<Box2d> truth = truth_boxes(l);
     const SeamEvidence seams = noisy_seams(l, truth[1], ++seed);
     const LayoutResult r = find_layout(union_outline(l), l.formats, p, &seams);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     CHECK_FALSE(r.ambiguous);
     CHECK(match_error(truth, r.boxes) >= 0.0);
   }
@@ -190,11 +190,11 @@ TEST_CASE("detect() keeps a box whose seam side has stray or scattered samples i
 
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {
   LayoutParams p;
-  p.time_budget_ms = 2000.0;
+  p.search.time_budget_ms = 2000.0;
   const KnownLayout l = mixed_formats();
   const std::vector<Box2d> truth = truth_boxes(l);
   const SeamEvidence seams = noisy_seams(l, truth[1], 9u);
   const LayoutResult r = find_layout(union_outline(l), l.formats, p, &seams);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   CHECK((r.ambiguous || match_error(truth, r.boxes) >= 0.0));
 }

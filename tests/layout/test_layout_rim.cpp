@@ -47,7 +47,7 @@ RimScene render_row(double yaw_rad, const Eigen::Vector2d& center, int count, do
   s.truth.long_m = 0.4;
   s.truth.short_m = 0.3;
   s.truth.format = 0;
-  s.layer.status = DetectionStatus::ok;
+  s.layer.status = DetectionStatus::kOk;
   s.layer.plane_camera.normal = Eigen::Vector3d(0, 0, -1);
   s.layer.plane_camera.d = kTop_m;
   Eigen::Matrix3d R;
@@ -108,7 +108,7 @@ const std::vector<BoxFormat> kRimFormats{BoxFormat{0.4, 0.3, "400x300"}};
 
 LayoutParams rim_params() {
   LayoutParams p;
-  p.time_budget_ms = 500;
+  p.search.time_budget_ms = 500;
   return p;
 }
 
@@ -153,7 +153,7 @@ TEST_CASE("the rim's mixed pixels carry their share of the footprint on the top"
   }
   SECTION("a layer that is not ok has no rim") {
     RimScene bad = s;
-    bad.layer.status = DetectionStatus::no_plane;
+    bad.layer.status = DetectionStatus::kNoPlane;
     CHECK(build_layer_rim(bad.frame, bad.cloud, bad.layer).empty());
   }
 }
@@ -167,17 +167,17 @@ TEST_CASE("at 20 mm per pixel, sides near the pixel grid keep their turn with th
   double worst_rim = 0.0, worst_plain = 0.0, worst_pos_mm = 0.0;
   for_turned_rows(5, 12, 1, 0.0, 0.0, [&](const RimScene& s) {
     const LayoutResult with_rim = solve_layout(s.frame, s.cloud, s.layer, kRimFormats, p);
-    REQUIRE(with_rim.status == DetectionStatus::ok);
+    REQUIRE(with_rim.status == DetectionStatus::kOk);
     REQUIRE(with_rim.boxes.size() == 1);
     worst_rim = std::max(worst_rim, yaw_error_deg(with_rim.boxes[0], s.truth));
     worst_pos_mm = std::max(worst_pos_mm, 1000.0 * (with_rim.boxes[0].center - s.truth.center).norm());
     // The same frame refined without the rim.
     LayoutParams search_only = p;
-    search_only.refine = false;
+    search_only.refine.enabled = false;
     const LayoutResult found = solve_layout(s.frame, s.cloud, s.layer, kRimFormats, search_only);
     const SeamEvidence seams = build_seam_evidence(s.frame, s.cloud, s.layer);
     LayoutParams q = p;
-    q.outline_tolerance_m = 0.5 * 0.02;
+    q.search.outline_tolerance_m = 0.5 * 0.02;
     const LayoutResult plain = refine_layout(found, s.layer, kRimFormats, &seams, q);
     REQUIRE(plain.boxes.size() == 1);
     worst_plain = std::max(worst_plain, yaw_error_deg(plain.boxes[0], s.truth));
@@ -195,7 +195,7 @@ TEST_CASE("at 20 mm per pixel, a seam narrower than a pixel does not turn its bo
   double worst = 0.0;
   for_turned_rows(7, 8, 2, 0.004, -0.2, [&](const RimScene& s) {
     const LayoutResult r = solve_layout(s.frame, s.cloud, s.layer, kRimFormats, rim_params());
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     REQUIRE(r.boxes.size() == 2);
     for (const Box2d& b : r.boxes) worst = std::max(worst, yaw_error_deg(b, s.truth));
   });

@@ -14,7 +14,7 @@ namespace {
 
 LayoutParams params_for_tests() {
   LayoutParams p;
-  p.time_budget_ms = 2000.0;  // generous: correctness here, speed in tests/bench
+  p.search.time_budget_ms = 2000.0;  // generous: correctness here, speed in tests/bench
   return p;
 }
 
@@ -55,7 +55,7 @@ TEST_CASE("exact recovery of known layouts from ideal outlines with seams") {
       l.offset = {0.1, -0.2};
       INFO(l.name << " theta " << theta);
       const LayoutResult r = run(l, p, true);
-      REQUIRE(r.status == DetectionStatus::ok);
+      REQUIRE(r.status == DetectionStatus::kOk);
       const double err = match_error(truth_boxes(l), r.boxes);
       CHECK(err >= 0.0);
       CHECK(err < 0.002);
@@ -69,22 +69,22 @@ TEST_CASE("exact recovery of known layouts from ideal outlines with seams") {
 TEST_CASE("a block with a unique tiling is found without seams and not flagged") {
   const KnownLayout l = block(3, 3, 0.4, 0.3);
   const LayoutResult r = run(l, params_for_tests(), false);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   CHECK(match_error(truth_boxes(l), r.boxes) >= 0.0);
   CHECK_FALSE(r.ambiguous);
-  REQUIRE(r.box_scores.size() == r.boxes.size());
-  for (double s : r.box_scores) CHECK(s > 0.99);
+  REQUIRE_FALSE(r.boxes.empty());
+  for (const LayoutBox& b : r.boxes) CHECK(b.score > 0.99);
 }
 
 TEST_CASE("pinwheel chirality: ambiguous from the outline, resolved by seams") {
   for (bool mirrored : {false, true}) {
     const KnownLayout l = pinwheel(0.4, 0.3, mirrored);
     const LayoutResult no_seams = run(l, params_for_tests(), false);
-    REQUIRE(no_seams.status == DetectionStatus::ok);
+    REQUIRE(no_seams.status == DetectionStatus::kOk);
     CHECK(no_seams.ambiguous);
     CHECK(no_seams.runner_up.size() == 4);
     const LayoutResult seams = run(l, params_for_tests(), true);
-    REQUIRE(seams.status == DetectionStatus::ok);
+    REQUIRE(seams.status == DetectionStatus::kOk);
     CHECK_FALSE(seams.ambiguous);
     CHECK(match_error(truth_boxes(l), seams.boxes) >= 0.0);
   }
@@ -97,7 +97,7 @@ TEST_CASE("noisy outlines: perturbed edges and rounded corners") {
     l.theta_rad = 0.1;
     INFO(l.name);
     const LayoutResult r = run(l, p, true, 0.002, 0.008);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     const double err = match_error(truth_boxes(l), r.boxes);
     CHECK(err >= 0.0);
     CHECK(err < 0.006);
@@ -107,25 +107,25 @@ TEST_CASE("noisy outlines: perturbed edges and rounded corners") {
 
 TEST_CASE("area methods agree on the layout") {
   const KnownLayout l = brick();
-  for (AreaMethod m : {AreaMethod::grid_sat, AreaMethod::raster, AreaMethod::clip}) {
+  for (AreaMethod m : {AreaMethod::kGridSat, AreaMethod::kRaster, AreaMethod::kClip}) {
     LayoutParams p = params_for_tests();
-    p.area_method = m;
+    p.search.area_method = m;
     const LayoutResult r = run(l, p, true);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     CHECK(match_error(truth_boxes(l), r.boxes) >= 0.0);
   }
 }
 
-TEST_CASE("paper mode finds the same layout as the product search on small cases") {
+TEST_CASE("paper mode finds the same layout as the best-first search on small cases") {
   LayoutParams paper = params_for_tests();
-  paper.search = SearchMode::paper;
+  paper.search.mode = SearchMode::kPaper;
   for (auto l : {block(2, 2, 0.4, 0.3), block(3, 1, 0.4, 0.3), l_shaped(), clusters()}) {
     INFO(l.name);
     if (l.name == "l-shaped") l.boxes.resize(4);  // keep the paper's queue small
     const LayoutResult a = run(l, paper, false);
     const LayoutResult b = run(l, params_for_tests(), false);
-    REQUIRE(a.status == DetectionStatus::ok);
-    REQUIRE(b.status == DetectionStatus::ok);
+    REQUIRE(a.status == DetectionStatus::kOk);
+    REQUIRE(b.status == DetectionStatus::kOk);
     CHECK_FALSE(a.budget_exhausted);
     CHECK(match_error(b.boxes, a.boxes) >= 0.0);
     CHECK(match_error(truth_boxes(l), a.boxes) >= 0.0);
@@ -135,8 +135,8 @@ TEST_CASE("paper mode finds the same layout as the product search on small cases
 
 TEST_CASE("paper mode reports its cap on a big layer") {
   LayoutParams paper = params_for_tests();
-  paper.search = SearchMode::paper;
-  paper.paper_max_hypotheses = 5000;
+  paper.search.mode = SearchMode::kPaper;
+  paper.search.paper_max_hypotheses = 5000;
   const LayoutResult r = run(grid_200x150(40), paper, false);
   CHECK(r.budget_exhausted);
   CHECK(r.hypotheses_visited >= 5000);
@@ -171,7 +171,7 @@ TEST_CASE("densely sampled jagged outlines keep their corners") {
     }
     const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
     const LayoutResult r = find_layout(outline, l.formats, params_for_tests(), &seams);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     const double err = match_error(truth_boxes(l), r.boxes);
     CHECK(err >= 0.0);
     CHECK(err < 0.005);
@@ -206,11 +206,11 @@ TEST_CASE("pinwheel chirality when the frame's own seams do not show: ambiguous,
   }
   lines.strength = 0.1;
   const LayoutResult r = find_layout(union_outline(l), l.formats, params_for_tests(), &lines);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   CHECK(r.ambiguous);
   // Real seams (every gap open) decide, for the layout they show.
   const LayoutResult c = find_layout(union_outline(l), l.formats, params_for_tests(), &mirror_seams);
-  REQUIRE(c.status == DetectionStatus::ok);
+  REQUIRE(c.status == DetectionStatus::kOk);
   CHECK_FALSE(c.ambiguous);
   CHECK(match_error(truth_boxes(mirror), c.boxes) >= 0.0);
 }
@@ -255,12 +255,12 @@ TEST_CASE("staggered edges traced at a coarse pitch: the outline tolerance keeps
   REQUIRE(outline.size() == 1);
   outline[0].outer = chamfer_steps(outline[0].outer, 0.15, 0.08, 0.16);
   LayoutParams p = params_for_tests();
-  p.outline_tolerance_m = 0.0;  // the outline taken as exact: boxes go missing
+  p.search.outline_tolerance_m = 0.0;  // the outline taken as exact: boxes go missing
   const LayoutResult exact = find_layout(outline, l.formats, p, nullptr);
   CHECK(match_error(truth_boxes(l), exact.boxes) < 0.0);
-  p.outline_tolerance_m = 0.01;  // half the pitch
+  p.search.outline_tolerance_m = 0.01;  // half the pitch
   const LayoutResult tolerant = find_layout(outline, l.formats, p, nullptr);
-  REQUIRE(tolerant.status == DetectionStatus::ok);
+  REQUIRE(tolerant.status == DetectionStatus::kOk);
   const double err = match_error(truth_boxes(l), tolerant.boxes);
   CHECK(err >= 0.0);
   CHECK(err < 0.003);
@@ -276,11 +276,11 @@ TEST_CASE("a lone box measured a pixel short on each axis is still a box") {
   PolygonWithHoles lone;
   lone.outer = {{0.1, 0.2}, {0.4, 0.2}, {0.4, 0.42}, {0.1, 0.42}};
   LayoutParams p = params_for_tests();
-  p.outline_tolerance_m = 0.0;
+  p.search.outline_tolerance_m = 0.0;
   CHECK(find_layout({lone}, formats, p, nullptr).boxes.empty());
-  p.outline_tolerance_m = 0.0085;  // half the pitch
+  p.search.outline_tolerance_m = 0.0085;  // half the pitch
   const LayoutResult r = find_layout({lone}, formats, p, nullptr);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   REQUIRE(r.boxes.size() == 1);
   CHECK_FALSE(r.ambiguous);
   // Placed from one of the seen sides (the refinement centres it on the outline).

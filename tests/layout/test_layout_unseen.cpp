@@ -76,27 +76,27 @@ TEST_CASE(
     "a box the outline cuts where the depth ends is completed, pinned by its neighbour and the seen edges") {
   const std::vector<PolygonWithHoles> layer{polygon({{0, 0}, {0.72, 0}, {0.57, 0.3}, {0, 0.3}})};
   const LayerSurroundings unseen_beyond = surroundings([](const Eigen::Vector2d& q) -> std::uint8_t {
-    if (on_layer(q)) return LayerSurroundings::level;
-    return beyond_cut(q) ? LayerSurroundings::unseen : LayerSurroundings::below;
+    if (on_layer(q)) return LayerSurroundings::kLevel;
+    return beyond_cut(q) ? LayerSurroundings::kUnseen : LayerSurroundings::kBelow;
   });
   LayoutParams p;
 
   SECTION("depth ends beyond the cut: both boxes, the cut one flagged") {
     const LayoutResult r = find_layout(layer, kFormats, p, nullptr, &unseen_beyond);
-    REQUIRE(r.status == DetectionStatus::ok);
+    REQUIRE(r.status == DetectionStatus::kOk);
     REQUIRE(r.boxes.size() == 2);
     const double err = match_error(truth_pair(), r.boxes);
     CHECK(err >= 0.0);
     CHECK(err < 0.002);
     CHECK(r.completed_unseen == 1);
-    REQUIRE(r.box_partly_unseen.size() == 2);
+    REQUIRE(r.boxes.size() == 2);
     for (std::size_t i = 0; i < 2; ++i)
-      CHECK(r.box_partly_unseen[i] == (to_layout(r.boxes[i].center).x() > 0.4));
+      CHECK(r.boxes[i].partly_unseen == (to_layout(r.boxes[i].center).x() > 0.4));
     CHECK_FALSE(r.ambiguous);
   }
   SECTION("the surface seen lower beyond the cut: the layer ends there, nothing is completed") {
     const LayerSurroundings seen_lower = surroundings([](const Eigen::Vector2d& q) -> std::uint8_t {
-      return on_layer(q) ? LayerSurroundings::level : LayerSurroundings::below;
+      return on_layer(q) ? LayerSurroundings::kLevel : LayerSurroundings::kBelow;
     });
     const LayoutResult r = find_layout(layer, kFormats, p, nullptr, &seen_lower);
     CHECK(r.completed_unseen == 0);
@@ -106,13 +106,13 @@ TEST_CASE(
     const LayoutResult plain = find_layout(layer, kFormats, p, nullptr);
     CHECK(plain.completed_unseen == 0);
     CHECK(plain.boxes.size() < 2);
-    p.unseen_min_fraction = 0.0;
+    p.completion.unseen_min_fraction = 0.0;
     const LayoutResult off = find_layout(layer, kFormats, p, nullptr, &unseen_beyond);
     CHECK(off.completed_unseen == 0);
     CHECK(off.boxes.size() == plain.boxes.size());
   }
   SECTION("less of the box seen than unseen_min_fraction: not completed") {
-    p.unseen_min_fraction = 0.65;  // 61 % is seen
+    p.completion.unseen_min_fraction = 0.65;  // 61 % is seen
     const LayoutResult r = find_layout(layer, kFormats, p, nullptr, &unseen_beyond);
     CHECK(r.completed_unseen == 0);
   }
@@ -123,7 +123,7 @@ TEST_CASE("a piece of a box with the depth ending on every side: its place is op
   const std::vector<PolygonWithHoles> layer{polygon({{0, 0}, {0.25, 0}, {0.25, 0.25}, {0, 0.25}})};
   const LayerSurroundings around = surroundings([](const Eigen::Vector2d& q) -> std::uint8_t {
     const bool in = q.x() >= 0 && q.y() >= 0 && q.x() <= 0.25 && q.y() <= 0.25;
-    return in ? LayerSurroundings::level : LayerSurroundings::unseen;
+    return in ? LayerSurroundings::kLevel : LayerSurroundings::kUnseen;
   });
   const LayoutResult r = find_layout(layer, kFormats, LayoutParams{}, nullptr, &around);
   INFO(r.reason);
@@ -138,12 +138,12 @@ TEST_CASE("a piece of the layer no box covers, larger than uncovered_flag_fracti
       polygon({{0, 0}, {0.8, 0}, {0.8, 0.3}, {0.23, 0.3}, {0.23, 0.53}, {0, 0.53}})};
   LayoutParams p;
   const LayoutResult r = find_layout(layer, kFormats, p, nullptr);
-  REQUIRE(r.status == DetectionStatus::ok);
+  REQUIRE(r.status == DetectionStatus::kOk);
   CHECK(r.boxes.size() == 2);
   CHECK(r.ambiguous);
-  p.uncovered_flag_fraction = 0.6;  // the piece is smaller than that
+  p.completion.uncovered_flag_fraction = 0.6;  // the piece is smaller than that
   CHECK_FALSE(find_layout(layer, kFormats, p, nullptr).ambiguous);
-  p.uncovered_flag_fraction = 0.0;  // off
+  p.completion.uncovered_flag_fraction = 0.0;  // off
   CHECK_FALSE(find_layout(layer, kFormats, p, nullptr).ambiguous);
   // The two boxes alone: the gap-wide slivers of a perturbed outline flag nothing.
   const std::vector<PolygonWithHoles> pair{polygon({{0, 0}, {0.8, 0}, {0.8, 0.3}, {0, 0.3}})};

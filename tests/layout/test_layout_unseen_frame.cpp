@@ -106,7 +106,7 @@ TEST_CASE("depth ending across the layer: the boxes it cuts are completed at the
     if (std::getenv("DUMP_CUT")) (void)write_frame("/tmp/cut_" + name, s.frame);
     const Detection d = detect(s.frame, s.formats, DetectionParams{});
     INFO(d.message);
-    REQUIRE(d.status == DetectionStatus::ok);
+    REQUIRE(d.status == DetectionStatus::kOk);
     CHECK(d.outline_unobserved);
     bool right = true;
     std::size_t flagged = 0;

@@ -187,7 +187,7 @@ TEST_CASE("refine: coarse pixels do not turn single boxes (yaw prior)", "[refine
     const Scene s = make_block(3, 2, {0.010, 0.014}, {0.012}, 0.003, 0.002, 0.0, rng, {}, 0.015);
     LayoutParams params;
     worst_prior = std::max(worst_prior, errors(s, refine_layout(s.found, s.layer, kFormats, &s.seams, params)).max_yaw_rad);
-    params.refine_yaw_sigma_deg = 10.0;
+    params.refine.yaw_sigma_deg = 10.0;
     worst_free = std::max(worst_free, errors(s, refine_layout(s.found, s.layer, kFormats, &s.seams, params)).max_yaw_rad);
   }
   INFO("worst yaw error with the prior " << worst_prior / deg << " deg, free " << worst_free / deg << " deg");
@@ -325,12 +325,11 @@ TEST_CASE("refine: a component without evidence of its own turns to its layer's 
   const Eigen::Vector2d offset(1.5, 0.0);
   s.layer.polygons.push_back(lone.layer.polygons.front());
   for (auto& v : s.layer.polygons.back().outer) v += offset;
-  Box2d b = lone.found.boxes.front();
+  LayoutBox b = lone.found.boxes.front();
   b.center += offset;
   b.yaw_rad += 1.5 * deg;
+  b.component = 1;
   s.found.boxes.push_back(b);
-  s.found.box_scores.push_back(lone.found.box_scores.front());
-  s.found.box_component.push_back(1);
   const LayoutResult r = refine_layout(s.found, s.layer, kFormats, &s.seams, LayoutParams{});
   REQUIRE(r.boxes.size() == 7);
   const double lone_error = std::abs(std::remainder(r.boxes.back().yaw_rad, M_PI / 2));

@@ -20,7 +20,7 @@ palletd::DetectedBox box_at(double x, double y, double z, int pick) {
 
 TEST_CASE("a detection that ran maps to an ok record in the camera frame with 1-based pick indices") {
   Detection d;
-  d.status = DetectionStatus::ok;
+  d.status = DetectionStatus::kOk;
   d.plane_camera.normal = {0.0, 0.0, -1.0};
   d.plane_camera.d = 1.5;  // plane z = 1.5 m
   d.boxes = {box_at(0.1, 0.2, 1.5, 0), box_at(-0.1, 0.2, 1.5, 1)};
@@ -43,7 +43,7 @@ TEST_CASE("a detection that ran maps to an ok record in the camera frame with 1-
 
 TEST_CASE("base-frame poses are used when every box carries one") {
   Detection d;
-  d.status = DetectionStatus::ok;
+  d.status = DetectionStatus::kOk;
   auto b = box_at(0.0, 0.0, 2.0, 0);
   b.base_position = Eigen::Vector3d(1.0, 2.0, 0.8);
   b.base_yaw_deg = -45.0;
@@ -58,19 +58,19 @@ TEST_CASE("base-frame poses are used when every box carries one") {
 
 TEST_CASE("failed detections carry the failure as error detail, an empty layout is 'no boxes'") {
   Detection failed;
-  failed.status = DetectionStatus::no_plane;
+  failed.status = DetectionStatus::kNoPlane;
   const auto r = palletd::to_result_record(failed, false);
   CHECK(r.status == palletd::modbus::ResultStatus::kFailed);
   CHECK(r.error == palletd::modbus::ErrorCode::kDetectionFailed);
   CHECK(r.error_detail == static_cast<std::uint16_t>(palletd::modbus::DetectionFailure::kNoPlane));
   Detection empty;
-  empty.status = DetectionStatus::ok;
+  empty.status = DetectionStatus::kOk;
   CHECK(palletd::to_result_record(empty, false).status == palletd::modbus::ResultStatus::kNoBoxes);
 }
 
 TEST_CASE("more boxes than the register map holds are counted but only 32 reported") {
   Detection d;
-  d.status = DetectionStatus::ok;
+  d.status = DetectionStatus::kOk;
   for (int i = 0; i < 40; ++i) d.boxes.push_back(box_at(0.01 * i, 0.0, 1.0, i));
   const auto r = palletd::to_result_record(d, false);
   CHECK(r.boxes_found == 40);

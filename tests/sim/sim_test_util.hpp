@@ -23,7 +23,7 @@ inline Eigen::Isometry3d look_down(double height_m, double tilt_deg) {
 /// A scene with nothing but the floor.
 inline Scene floor_scene(double height_m, double tilt_deg, double reflectance) {
   Scene s;
-  s.pallet = PalletKind::None;
+  s.pallet = PalletKind::kNone;
   s.floor_reflectance = reflectance;
   s.T_world_camera = look_down(height_m, tilt_deg);
   return s;

@@ -66,7 +66,7 @@ TEST_CASE("a rendered plane matches its analytic depth within the noise") {
         const double z = floor_z(scene, k, u, v);
         const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
         double sigma = 0.0;
-        if (p.kind == SensorKind::TimeOfFlight) {
+        if (p.kind == SensorKind::kTimeOfFlight) {
           // sigma along the ray ~ r / sqrt(rho cos), projected onto Z.
           const double r = z * ray.norm();
           const Eigen::Vector3d d = (scene.T_world_camera.linear() * ray).normalized();
@@ -108,7 +108,7 @@ TEST_CASE("each profile's measured noise at 2 m matches its model") {
     }
     // The models, written out from docs/simulator.md (with quantisation as uniform noise).
     double model = 0.0;
-    if (p.kind == SensorKind::TimeOfFlight) {
+    if (p.kind == SensorKind::kTimeOfFlight) {
       model = p.tof_sigma_2m_m;  // reference reflectance 0.5 at 2 m
     } else {
       const double nguyen = 0.0012 + 0.0019 * (2.0 - 0.4) * (2.0 - 0.4);
@@ -126,11 +126,11 @@ TEST_CASE("each profile's measured noise at 2 m matches its model") {
 }
 
 TEST_CASE("a noise-free frame's truth boxes re-project exactly onto the rendered top faces") {
-  for (PatternFamily pattern : {PatternFamily::Block, PatternFamily::Pinwheel, PatternFamily::Mixed}) {
+  for (PatternFamily pattern : {PatternFamily::kBlock, PatternFamily::kPinwheel, PatternFamily::kMixed}) {
     const SensorProfile p = *profile_by_name("blaze101");
     ScenarioOptions o = test::ideal_boxes(pattern);
     o.fill = 0.7;
-    o.removal = RemovalMode::Random;
+    o.removal = RemovalMode::kRandom;
     const Scene scene = *make_scene(o, p, 17);
     const SimulatedFrame sim = render(scene, p, 17, test::noise_free());
     const Intrinsics& k = p.intrinsics;

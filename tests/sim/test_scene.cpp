@@ -12,8 +12,8 @@ using namespace palletd::sim;
 
 namespace {
 
-const std::vector<PatternFamily> kPatterns{PatternFamily::Block,    PatternFamily::Interlock, PatternFamily::Brick,
-                                           PatternFamily::Pinwheel, PatternFamily::Chimney,   PatternFamily::Mixed};
+const std::vector<PatternFamily> kPatterns{PatternFamily::kBlock,    PatternFamily::kInterlock, PatternFamily::kBrick,
+                                           PatternFamily::kPinwheel, PatternFamily::kChimney,   PatternFamily::kMixed};
 
 std::vector<std::vector<BoxFormatSpec>> format_sets() {
   std::vector<std::vector<BoxFormatSpec>> sets;
@@ -39,7 +39,7 @@ TEST_CASE("parse_format reads LONGxSHORT and LONGxSHORTxHEIGHT and rejects garba
 TEST_CASE("patterns have no overlapping boxes and stay within the pallet") {
   const SensorProfile profile = *profile_by_name("o3d303");
   int scenes = 0;
-  for (PalletKind pallet : {PalletKind::Eur1200x800, PalletKind::Industrial1200x1000, PalletKind::None})
+  for (PalletKind pallet : {PalletKind::kEur1200x800, PalletKind::kIndustrial1200x1000, PalletKind::kNone})
     for (PatternFamily pattern : kPatterns)
       for (const auto& formats : format_sets())
         for (std::uint64_t seed = 1; seed <= 3; ++seed) {
@@ -89,9 +89,9 @@ TEST_CASE("footprints_overlap detects overlap and accepts touching boxes") {
 TEST_CASE("pattern families differ in their layouts") {
   detail::Rng rng(5);
   const auto f315 = std::vector<BoxFormatSpec>{*parse_format("315x232")};
-  const auto block = detail::make_pattern(PatternFamily::Block, f315, 1.2, 0.8, rng);
-  const auto interlock = detail::make_pattern(PatternFamily::Interlock, f315, 1.2, 0.8, rng);
-  const auto pinwheel = detail::make_pattern(PatternFamily::Pinwheel, f315, 1.2, 0.8, rng);
+  const auto block = detail::make_pattern(PatternFamily::kBlock, f315, 1.2, 0.8, rng);
+  const auto interlock = detail::make_pattern(PatternFamily::kInterlock, f315, 1.2, 0.8, rng);
+  const auto pinwheel = detail::make_pattern(PatternFamily::kPinwheel, f315, 1.2, 0.8, rng);
   auto orientations = [](const std::vector<detail::PlacedBox>& boxes) {
     std::set<long> yaws;
     for (const auto& b : boxes) yaws.insert(std::lround(std::fmod(b.yaw_rad + 2.0 * detail::kPi, detail::kPi) * 100.0));
@@ -103,7 +103,7 @@ TEST_CASE("pattern families differ in their layouts") {
   CHECK(orientations(interlock) == 2);
   CHECK(orientations(pinwheel) == 2);
   // Brick: neighbouring rows have their seams offset.
-  const auto brick = detail::make_pattern(PatternFamily::Brick, f315, 1.2, 0.8, rng);
+  const auto brick = detail::make_pattern(PatternFamily::kBrick, f315, 1.2, 0.8, rng);
   std::map<long, std::vector<double>> rows;
   for (const auto& b : brick) rows[std::lround(b.center.y() * 1000.0)].push_back(b.center.x());
   REQUIRE(rows.size() >= 2);
@@ -112,7 +112,7 @@ TEST_CASE("pattern families differ in their layouts") {
   const double offset = std::abs(x1 - x0);
   CHECK((std::abs(offset - 0.5 * 0.315) < 1e-9 || std::abs(offset - 0.5 * 0.232) < 1e-9));
   // Mixed: both formats present.
-  const auto mixed = detail::make_pattern(PatternFamily::Mixed, {*parse_format("600x400"), *parse_format("400x300")}, 1.2,
+  const auto mixed = detail::make_pattern(PatternFamily::kMixed, {*parse_format("600x400"), *parse_format("400x300")}, 1.2,
                                           0.8, rng);
   std::set<int> formats;
   for (const auto& b : mixed) formats.insert(b.format);
@@ -177,8 +177,8 @@ TEST_CASE("chimney encloses a larger central hole than the pinwheel") {
   for (const auto& [name, pallet_short] : cases) {
     detail::Rng rng(3);
     const BoxFormatSpec f = *parse_format(name);
-    const auto chimney = detail::make_pattern(PatternFamily::Chimney, {f}, 1.2, pallet_short, rng);
-    const auto pinwheel = detail::make_pattern(PatternFamily::Pinwheel, {f}, 1.2, pallet_short, rng);
+    const auto chimney = detail::make_pattern(PatternFamily::kChimney, {f}, 1.2, pallet_short, rng);
+    const auto pinwheel = detail::make_pattern(PatternFamily::kPinwheel, {f}, 1.2, pallet_short, rng);
     const double hole = largest_enclosed_hole(chimney, f);
     INFO(name << " on 1200x" << pallet_short * 1000);
     CHECK(hole < f.short_m * f.short_m);
@@ -189,10 +189,10 @@ TEST_CASE("chimney encloses a larger central hole than the pinwheel") {
 
 TEST_CASE("fill keeps the requested share of the top layer, down to one box") {
   const SensorProfile profile = *profile_by_name("o3d303");
-  for (RemovalMode mode : {RemovalMode::Rows, RemovalMode::Columns, RemovalMode::Corner, RemovalMode::Random,
-                           RemovalMode::Holes, RemovalMode::Clusters}) {
+  for (RemovalMode mode : {RemovalMode::kRows, RemovalMode::kColumns, RemovalMode::kCorner, RemovalMode::kRandom,
+                           RemovalMode::kHoles, RemovalMode::kClusters}) {
     ScenarioOptions o;
-    o.pattern = PatternFamily::Block;
+    o.pattern = PatternFamily::kBlock;
     o.formats = {*parse_format("300x200")};  // 16 boxes on 1200x800
     o.removal = mode;
     o.fill = 1.0;
@@ -210,7 +210,7 @@ TEST_CASE("clusters removal leaves separate groups and holes removal keeps the o
   ScenarioOptions o;
   o.formats = {*parse_format("300x200")};
   o.fill = 0.5;
-  o.removal = RemovalMode::Clusters;
+  o.removal = RemovalMode::kClusters;
   o.jitter_m = 0.0;
   o.jitter_deg = 0.0;
   o.gap_max_m = 0.0;
@@ -226,7 +226,7 @@ TEST_CASE("clusters removal leaves separate groups and holes removal keeps the o
   }
   CHECK((band_x || band_y));
 
-  o.removal = RemovalMode::Holes;
+  o.removal = RemovalMode::kHoles;
   o.fill = 0.75;  // 4 interior boxes of 16 removed
   scene = make_scene(o, profile, 4);
   REQUIRE(scene.ok());
@@ -244,7 +244,7 @@ TEST_CASE("truth boxes lie inside the image") {
       for (std::uint64_t seed = 1; seed <= 4; ++seed) {
         ScenarioOptions o;
         o.pattern = pattern;
-        o.pallet = seed % 2 == 0 ? PalletKind::Industrial1200x1000 : PalletKind::Eur1200x800;
+        o.pallet = seed % 2 == 0 ? PalletKind::kIndustrial1200x1000 : PalletKind::kEur1200x800;
         auto scene = make_scene(o, profile, seed);
         REQUIRE(scene.ok());
         const Truth truth = make_truth(*scene);

@@ -66,7 +66,7 @@ Json get_json(httplib::Client& c, const std::string& path, int want_status = 200
 TEST_CASE("the fixture's detection finds the boxes of the frame") {
   const auto& s = shared_fixture().first();
   INFO(s.detection.message);
-  REQUIRE(s.detection.status == DetectionStatus::ok);
+  REQUIRE(s.detection.status == DetectionStatus::kOk);
   REQUIRE(s.detection.boxes.size() >= 6);
   for (const auto& b : s.detection.boxes) REQUIRE(b.base_position.has_value());
 }

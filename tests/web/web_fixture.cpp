@@ -72,7 +72,7 @@ modbus::RegisterImage WebFixture::encode(const ResultSnapshot& s, std::uint16_t 
   modbus::ResultRecord rec;
   rec.request_id = s.request_id;
   rec.recipe = s.recipe;
-  rec.status = s.detection.status != DetectionStatus::ok ? modbus::ResultStatus::kFailed
+  rec.status = s.detection.status != DetectionStatus::kOk ? modbus::ResultStatus::kFailed
                : s.detection.boxes.empty()               ? modbus::ResultStatus::kNoBoxes
                                                          : modbus::ResultStatus::kOk;
   rec.boxes_found = static_cast<std::uint16_t>(s.detection.boxes.size());

@@ -276,9 +276,9 @@ LayerResult judge_outline(LayerResult result, const OutlineCounts& counts, bool 
                << " % of its length; the layer may go on unseen there";
   }
   if (diag.outline_along_invalid && layer_params.reject_unobserved) {
-    return fail(std::move(result), DetectionStatus::no_layer, unobserved.str());
+    return fail(std::move(result), DetectionStatus::kNoLayer, unobserved.str());
   }
-  result.status = DetectionStatus::ok;
+  result.status = DetectionStatus::kOk;
   if (touches_image_border) result.reason = "the layer touches the image border; its outline is clipped there";
   if (diag.outline_along_invalid) result.reason += (result.reason.empty() ? "" : "; ") + unobserved.str();
   return result;
@@ -295,13 +295,13 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   std::size_t usable = 0;
   const std::optional<std::string> bad_frame = frame_problem(K, cloud, plane_params, usable);
   result.diagnostics.valid_points = usable;
-  if (bad_frame) return fail(result, DetectionStatus::bad_frame, *bad_frame);
+  if (bad_frame) return fail(result, DetectionStatus::kBadFrame, *bad_frame);
 
   // Stage 1: top plane.
   const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params, usable);
   result.diagnostics.plane_candidates = top.candidates;
   result.diagnostics.t_plane_ms = ms_since(t_start);
-  if (top.status != DetectionStatus::ok) return fail(result, top.status, top.reason);
+  if (top.status != DetectionStatus::kOk) return fail(result, top.status, top.reason);
   result.plane_camera = top.plane;
   result.diagnostics.plane_inliers = top.inliers;
   result.diagnostics.plane_sigma_m = top.sigma_m;
@@ -318,7 +318,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   result.diagnostics.touches_image_border = lm.touches_image_border;
   if (cv::countNonZero(lm.mask) == 0) {
     result.diagnostics.t_layer_ms = ms_since(t_layer);
-    return fail(result, DetectionStatus::no_layer, "no layer pixels left after cleaning the plane's mask");
+    return fail(result, DetectionStatus::kNoLayer, "no layer pixels left after cleaning the plane's mask");
   }
   const layer::Components comps = layer::find_components(
       lm.mask, lm.border, cloud, top.plane, K, min_component_area_m2, layer_params.min_hole_area_px);
@@ -332,10 +332,10 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   if (comps.kept.empty()) {
     std::ostringstream s;
     s << "no layer component covers " << min_component_area_m2 << " m^2 (" << comps.dropped << " smaller ones dropped)";
-    return fail(result, DetectionStatus::no_layer, s.str());
+    return fail(result, DetectionStatus::kNoLayer, s.str());
   }
   if (lm.touches_image_border && layer_params.reject_clipped)
-    return fail(result, DetectionStatus::no_layer, "the layer touches the image border; its outline is clipped");
+    return fail(result, DetectionStatus::kNoLayer, "the layer touches the image border; its outline is clipped");
 
   // Stage 5: crust and polygons.
   const auto t_contour = Clock::now();
@@ -345,7 +345,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   OutlineCounts counts;
   trace_polygons(ctx, comps.kept, result, counts);
   result.diagnostics.t_contour_ms = ms_since(t_contour);
-  if (result.polygons.empty()) return fail(result, DetectionStatus::no_layer, "no closed outline could be traced");
+  if (result.polygons.empty()) return fail(result, DetectionStatus::kNoLayer, "no closed outline could be traced");
   return judge_outline(std::move(result), counts, lm.touches_image_border, layer_params);
 }
 

@@ -39,7 +39,7 @@ struct DepthNoise {
 };
 
 struct TopPlane {
-  DetectionStatus status = DetectionStatus::no_plane;
+  DetectionStatus status = DetectionStatus::kNoPlane;
   std::string reason;
   Plane plane;                 ///< refitted, normal toward the camera
   double sigma_m = 0.0;        ///< robust sigma of the residuals near the plane [m]

@@ -382,7 +382,7 @@ TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsic
     result.reason = "plane refit failed";
     return result;
   }
-  result.status = DetectionStatus::ok;
+  result.status = DetectionStatus::kOk;
   result.plane = fit.plane;
   result.sigma_m = noise.sigma_all_m;
   result.noise = noise;

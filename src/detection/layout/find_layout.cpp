@@ -6,10 +6,10 @@
 #include <cmath>
 #include <sstream>
 
-#include "layout_internal.hpp"
 #include "evidence/layout_scoring.hpp"
 #include "evidence/rank_layouts.hpp"
 #include "evidence/seam_likelihood.hpp"
+#include "layout_internal.hpp"
 
 namespace palletd {
 
@@ -19,8 +19,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-constexpr double kSimplify_m = 0.004;          ///< outline simplification for corners and lines [m]
-constexpr std::size_t kMaxOrientations = 3;    ///< layout orientations searched per component
+constexpr double kSimplify_m = 0.004;        ///< outline simplification for corners and lines [m]
+constexpr std::size_t kMaxOrientations = 3;  ///< layout orientations searched per component
 /// Seams predicted and absent count together for at most this share of the decisive evidence:
 /// alone they never decide (a gap can be pressed shut), a seam that shows must.
 constexpr double kAbsentShare = 0.9;
@@ -45,8 +45,8 @@ struct LayoutContext {
   const LayoutParams& params;
   const LayerSurroundings* surroundings = nullptr;  ///< null when there are none to complete into
   FormatExtremes extremes;
-  double min_edge_m = 0.0;      ///< outline edges shorter than this carry no corner
-  double tie_margin_m2 = 0.0;   ///< outline scores closer than this are near-equal
+  double min_edge_m = 0.0;     ///< outline edges shorter than this carry no corner
+  double tie_margin_m2 = 0.0;  ///< outline scores closer than this are near-equal
   SeamJudge judge;
 };
 
@@ -60,8 +60,9 @@ LayoutContext make_context(const std::vector<BoxFormat>& formats, const LayoutPa
   ctx.judge.min_short_m = ctx.extremes.min_short_m;
   ctx.judge.merge_tol_m = line_merge_tol_m(params, ctx.extremes.min_short_m);
   ctx.judge.absent_cap_nats = kAbsentShare * SeamLikelihood::decisive_nats(ctx.extremes.min_short_m);
-  const bool can_complete = surroundings != nullptr && !surroundings->empty() && params.unseen_min_fraction > 0.0 &&
-                            params.search == SearchMode::product;
+  const bool can_complete = surroundings != nullptr && !surroundings->empty() &&
+                            params.completion.unseen_min_fraction > 0.0 &&
+                            params.search.mode == SearchMode::kBestFirst;
   ctx.surroundings = can_complete ? surroundings : nullptr;
   return ctx;
 }
@@ -122,15 +123,17 @@ void tally(LayoutResult& result, std::size_t visited, bool exhausted) {
   result.budget_exhausted = result.budget_exhausted || exhausted;
 }
 
-/// Whether a component is too small for any box (its outline grown by the product search's
+/// Whether a component is too small for any box (its outline grown by the best-first search's
 /// tolerance, against the share a box needs: a_min, or unseen_min where boxes may be completed).
 bool too_small_for_boxes(const PolygonWithHoles& comp, double comp_area_m2, const LayoutContext& ctx) {
   const LayoutParams& p = ctx.params;
   double grown_area = comp_area_m2;
-  if (p.search == SearchMode::product && p.outline_tolerance_m > 0.0) {
-    grown_area += p.outline_tolerance_m * rings_length_m(comp) + 4.0 * p.outline_tolerance_m * p.outline_tolerance_m;
+  if (p.search.mode == SearchMode::kBestFirst && p.search.outline_tolerance_m > 0.0) {
+    grown_area += p.search.outline_tolerance_m * rings_length_m(comp) +
+                  4.0 * p.search.outline_tolerance_m * p.search.outline_tolerance_m;
   }
-  const double share = ctx.surroundings != nullptr ? p.unseen_min_fraction : p.a_min_fraction;
+  const double share =
+      ctx.surroundings != nullptr ? p.completion.unseen_min_fraction : p.search.a_min_fraction;
   return grown_area < share * ctx.extremes.min_area_m2;
 }
 
@@ -141,7 +144,7 @@ bool solve_paper_component(const PolygonWithHoles& comp, const PolygonWithHoles&
   const PaperSolution ps = search_paper(comp, comp_edges, ctx.formats, ctx.params, deadline);
   tally(result, ps.visited, ps.cap_hit);
   if (!ps.found) {
-    reason = orthogonal_corners(comp_edges, ctx.params.corner_angle_tol_deg, ctx.min_edge_m).empty()
+    reason = orthogonal_corners(comp_edges, ctx.params.search.corner_angle_tol_deg, ctx.min_edge_m).empty()
                  ? " has no orthogonal corner (round or damaged outline)"
                  : ": no box of the recipe fits its outline";
     return false;
@@ -149,10 +152,7 @@ bool solve_paper_component(const PolygonWithHoles& comp, const PolygonWithHoles&
   result.score += ps.score;
   for (const auto& b : ps.boxes) {
     const BoxSupport s = box_support(b, comp, nullptr, ctx.params);
-    result.boxes.push_back(b);
-    result.box_component.push_back(static_cast<int>(ci));
-    result.box_partly_unseen.push_back(false);
-    result.box_scores.push_back(s.score);
+    result.boxes.push_back({b, s.score, static_cast<int>(ci), false});
     covered_m2 += s.inside_area_m2;
   }
   return true;
@@ -166,8 +166,8 @@ void research_with_seams(const PolygonWithHoles& fp, const PolygonWithHoles& fe,
                          LayoutResult& result, std::vector<Candidate>& cands) {
   const SeamTable table(*ctx.judge.seams, frame, bounds_of(fp));
   if (table.empty()) return;
-  const ComponentSolution ss = search_product(fp, fe, ctx.formats, ctx.params, &table, budget.orientation_left(),
-                                              best_score - ctx.tie_margin_m2);
+  const ComponentSolution ss = search_best_first(fp, fe, ctx.formats, ctx.params, &table,
+                                                 budget.orientation_left(), best_score - ctx.tie_margin_m2);
   result.search_expansions += ss.expansions;
   budget.spend(ss.expansions);
   tally(result, ss.visited, ss.budget_exhausted);
@@ -179,7 +179,7 @@ void research_with_seams(const PolygonWithHoles& fp, const PolygonWithHoles& fe,
   }
 }
 
-/// The product search in each of the component's best supported layout orientations: the
+/// The best-first search in each of the component's best supported layout orientations: the
 /// outline alone decides coverage (a noisy seam raster must not veto a layout the outline
 /// supports); the seams rank the near-equal candidates afterwards.
 std::vector<Candidate> search_orientations(const PolygonWithHoles& comp, const PolygonWithHoles& comp_edges,
@@ -196,7 +196,7 @@ std::vector<Candidate> search_orientations(const PolygonWithHoles& comp, const P
     const PolygonWithHoles fe = frame.to_frame(comp_edges);
     const std::size_t slot = frames.add(frame, frame.to_frame(comp));
     const PolygonWithHoles& fp = frames.polygon(slot);
-    const ComponentSolution cs = search_product(fp, fe, ctx.formats, ctx.params, nullptr, share);
+    const ComponentSolution cs = search_best_first(fp, fe, ctx.formats, ctx.params, nullptr, share);
     result.search_expansions += cs.expansions;
     budget.spend(cs.expansions);
     tally(result, cs.visited, cs.budget_exhausted);
@@ -239,13 +239,14 @@ bool complete_from_nothing(const PolygonWithHoles& comp_edges, const ComponentFr
 
 /// Completes the chosen layout with the boxes the outline cuts where the depth ends (a search
 /// again when part of the outline is unseen, kResearchShareDivisor of the call's budget at least).
-void complete_unseen_boxes(ComponentLayout& chosen, const PolygonWithHoles& comp_edges, const ComponentFrames& frames,
-                           const LayoutContext& ctx, BudgetSplit& budget, LayoutResult& result) {
+void complete_unseen_boxes(ComponentLayout& chosen, const PolygonWithHoles& comp_edges,
+                           const ComponentFrames& frames, const LayoutContext& ctx, BudgetSplit& budget,
+                           LayoutResult& result) {
   Candidate& best = chosen.best;
-  const SearchBudget research = budget.research(ctx.params.search_expansions / kResearchShareDivisor);
+  const SearchBudget research = budget.research(ctx.params.search.search_expansions / kResearchShareDivisor);
   const UnseenCompletion uc =
-      complete_unseen(best.boxes, frames.polygon(best.orientation), best.frame.to_frame(comp_edges), best.frame,
-                      ctx.formats, *ctx.surroundings, ctx.params, &research);
+      complete_unseen(best.boxes, frames.polygon(best.orientation), best.frame.to_frame(comp_edges),
+                      best.frame, ctx.formats, *ctx.surroundings, ctx.params, &research);
   result.search_expansions += uc.expansions;
   budget.spend_call(uc.expansions);
   best.boxes = uc.boxes;
@@ -256,9 +257,10 @@ void complete_unseen_boxes(ComponentLayout& chosen, const PolygonWithHoles& comp
 
 /// Searches, ranks and completes one component's layout; false with `why` when none is found.
 bool choose_layout(const PolygonWithHoles& comp, const PolygonWithHoles& comp_edges, const LayoutContext& ctx,
-                   BudgetSplit& budget, LayoutResult& result, ComponentFrames& frames, std::vector<Candidate>& cands,
-                   ComponentLayout& chosen, std::string& why) {
-  const std::vector<double> thetas = layout_orientations(comp_edges, ctx.params.corner_angle_tol_deg, ctx.min_edge_m);
+                   BudgetSplit& budget, LayoutResult& result, ComponentFrames& frames,
+                   std::vector<Candidate>& cands, ComponentLayout& chosen, std::string& why) {
+  const std::vector<double> thetas =
+      layout_orientations(comp_edges, ctx.params.search.corner_angle_tol_deg, ctx.min_edge_m);
   if (thetas.empty()) {
     why = " has no orthogonal corner (round or damaged outline)";
     return false;
@@ -272,24 +274,26 @@ bool choose_layout(const PolygonWithHoles& comp, const PolygonWithHoles& comp_ed
     why = ": " + (why.empty() ? std::string("no layout found") : why);
     return false;
   }
-  std::stable_sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  std::stable_sort(cands.begin(), cands.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   const double same_tol_m = kSameLayoutShare * std::sqrt(ctx.extremes.min_area_m2);
   const std::vector<std::size_t> near = near_equal_candidates(cands, ctx.tie_margin_m2, same_tol_m);
   const Ranking ranking = rank_by_seams(cands, near, frames, ctx.judge, ctx.params);
   chosen.best = cands[ranking.order.front()];
   chosen.runner_up = ranking.order.size() > 1 ? &cands[ranking.order[1]] : nullptr;
   chosen.ambiguous = ranking.ambiguous;
-  chosen.ambiguous = settle_footprint_moves(chosen.best, cands, near, frames, ctx.formats, ctx.judge, ctx.params) ||
-                     chosen.ambiguous;
+  chosen.ambiguous =
+      settle_footprint_moves(chosen.best, cands, near, frames, ctx.formats, ctx.judge, ctx.params) ||
+      chosen.ambiguous;
   chosen.ambiguous = chosen.ambiguous || completion_tied;
   if (ctx.surroundings != nullptr && !chosen.all_completed) {
     complete_unseen_boxes(chosen, comp_edges, frames, ctx, budget, result);
   }
   // A piece of the layer that no box covers and that is more than a gap: the outline is not
   // explained, so the layout is in doubt there (a box of another format, or the wrong tiling).
-  if (ctx.params.uncovered_flag_fraction > 0.0 &&
+  if (ctx.params.completion.uncovered_flag_fraction > 0.0 &&
       largest_uncovered_m2(frames.polygon(chosen.best.orientation), chosen.best.boxes, kUncoveredGap_m) >=
-          ctx.params.uncovered_flag_fraction * ctx.extremes.min_area_m2) {
+          ctx.params.completion.uncovered_flag_fraction * ctx.extremes.min_area_m2) {
     chosen.ambiguous = true;
   }
   return true;
@@ -307,37 +311,39 @@ void record_runner_up(const Candidate& best, const Candidate& other, const std::
 
 /// Scores the chosen boxes against the component and adds them to the result; false with `why`
 /// when they cover too little of it (its boxes match no recipe format).
-bool publish_layout(const ComponentLayout& chosen, double comp_area_m2, std::size_t ci, ComponentFrames& frames,
-                    const LayoutContext& ctx, LayoutResult& result, double& covered_m2, std::string& why) {
+bool publish_layout(const ComponentLayout& chosen, double comp_area_m2, std::size_t ci,
+                    ComponentFrames& frames, const LayoutContext& ctx, LayoutResult& result,
+                    double& covered_m2, std::string& why) {
   const Candidate& best = chosen.best;
   double comp_covered = 0;
   std::vector<BoxSupport> support;
   const SeamTable* table = frames.table(best.orientation, ctx.judge.seams);
   for (const auto& fb : best.boxes) {
-    support.push_back(box_support(best.frame.to_layer(fb, ctx.formats), best.frame, frames.polygon(best.orientation),
-                                  table, ctx.params));
+    support.push_back(box_support(best.frame.to_layer(fb, ctx.formats), best.frame,
+                                  frames.polygon(best.orientation), table, ctx.params));
     comp_covered += support.back().inside_area_m2;
   }
-  if (comp_covered < ctx.params.min_coverage * comp_area_m2) {
-    why = ": boxes of the recipe cover only " + std::to_string(static_cast<int>(100.0 * comp_covered / comp_area_m2)) +
+  if (comp_covered < ctx.params.search.min_coverage * comp_area_m2) {
+    why = ": boxes of the recipe cover only " +
+          std::to_string(static_cast<int>(100.0 * comp_covered / comp_area_m2)) +
           "% of it (its boxes match no recipe format)";
     return false;
   }
   covered_m2 += comp_covered;
   for (std::size_t k = 0; k < best.boxes.size(); ++k) {
-    result.boxes.push_back(best.frame.to_layer(best.boxes[k], ctx.formats));
-    result.box_component.push_back(static_cast<int>(ci));
-    result.box_scores.push_back(support[k].score);
-    result.box_partly_unseen.push_back(chosen.all_completed || k + chosen.completed >= best.boxes.size());
+    const bool partly_unseen = chosen.all_completed || k + chosen.completed >= best.boxes.size();
+    result.boxes.push_back({best.frame.to_layer(best.boxes[k], ctx.formats), support[k].score,
+                            static_cast<int>(ci), partly_unseen});
   }
   return true;
 }
 
-/// One component, product search: choose, record, publish. False with `why` (the sentence after
+/// One component, best-first search: choose, record, publish. False with `why` (the sentence after
 /// "component N") when it gets no layout.
-bool solve_product_component(const PolygonWithHoles& comp, const PolygonWithHoles& comp_edges, double comp_area_m2,
-                             std::size_t ci, const LayoutContext& ctx, BudgetSplit& budget, LayoutResult& result,
-                             double& covered_m2, std::string& why) {
+bool solve_best_first_component(const PolygonWithHoles& comp, const PolygonWithHoles& comp_edges,
+                                double comp_area_m2, std::size_t ci, const LayoutContext& ctx,
+                                BudgetSplit& budget, LayoutResult& result, double& covered_m2,
+                                std::string& why) {
   ComponentFrames frames;
   std::vector<Candidate> cands;
   ComponentLayout chosen;
@@ -352,7 +358,7 @@ bool solve_product_component(const PolygonWithHoles& comp, const PolygonWithHole
 void finish_status(const std::vector<std::string>& reasons, LayoutResult& result) {
   std::string r;
   for (const auto& s : reasons) r += (r.empty() ? "" : "; ") + s;
-  result.status = result.boxes.empty() ? DetectionStatus::no_layout : DetectionStatus::ok;
+  result.status = result.boxes.empty() ? DetectionStatus::kNoLayout : DetectionStatus::kOk;
   result.reason = result.boxes.empty() && r.empty() ? "no layout found" : r;
 }
 
@@ -387,8 +393,10 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     result.reason = "the layer has no outline";
   } else {
     const LayoutContext ctx = make_context(formats, params, seams, surroundings);
-    const auto budget_ms = std::chrono::duration<double, std::milli>(std::max(0.0, params.time_budget_ms));
-    BudgetSplit budget(params.search_expansions, t0 + std::chrono::duration_cast<Clock::duration>(budget_ms));
+    const auto budget_ms =
+        std::chrono::duration<double, std::milli>(std::max(0.0, params.search.time_budget_ms));
+    BudgetSplit budget(params.search.search_expansions,
+                       t0 + std::chrono::duration_cast<Clock::duration>(budget_ms));
     double total_area = 0.0, covered = 0.0;
     std::vector<std::string> reasons;
     for (std::size_t ci = 0; ci < components.size(); ++ci) {
@@ -403,10 +411,11 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
       } else {
         budget.begin_component(components.size() - ci);
         const PolygonWithHoles comp_edges = simplified(comp, kSimplify_m);
-        const bool solved =
-            params.search == SearchMode::paper
-                ? solve_paper_component(comp, comp_edges, ci, ctx, budget.component_deadline(), result, covered, why)
-                : solve_product_component(comp, comp_edges, comp_area, ci, ctx, budget, result, covered, why);
+        const bool solved = params.search.mode == SearchMode::kPaper
+                                ? solve_paper_component(comp, comp_edges, ci, ctx,
+                                                        budget.component_deadline(), result, covered, why)
+                                : solve_best_first_component(comp, comp_edges, comp_area, ci, ctx, budget,
+                                                             result, covered, why);
         if (solved) continue;
       }
       reasons.push_back("component " + std::to_string(ci) + why);

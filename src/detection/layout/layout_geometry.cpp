@@ -232,104 +232,10 @@ std::vector<double> layout_orientations(const PolygonWithHoles& polygon, double 
   return out;
 }
 
-SeamTable::SeamTable(const SeamEvidence& seams, const LayoutFrame& frame, const Rect& bounds) {
-  if (seams.empty()) return;
-  cell_ = seams.cell_m;
-  x0_ = bounds.x0 - 2 * cell_;
-  y0_ = bounds.y0 - 2 * cell_;
-  w_ = static_cast<int>(std::ceil((bounds.x1 - bounds.x0) / cell_)) + 4;
-  h_ = static_cast<int>(std::ceil((bounds.y1 - bounds.y0) / cell_)) + 4;
-  if (w_ <= 0 || h_ <= 0 || static_cast<double>(w_) * h_ > 4e6) {
-    w_ = h_ = 0;
-    return;
-  }
-  // dst pixel (c, r) -> frame q -> layer p -> src pixel; an affine map.
-  const double c = std::cos(frame.theta_rad), s = std::sin(frame.theta_rad);
-  const double k = 1.0 / seams.cell_m;
-  // q = (x0 + (col + 0.5) cell, y0 + (row + 0.5) cell); p = R q + pivot; src = (p - origin) k - 0.5
-  const double qx0 = x0_ + 0.5 * cell_, qy0 = y0_ + 0.5 * cell_;
-  cv::Matx23d m(k * c * cell_, -k * s * cell_,
-                k * (c * qx0 - s * qy0 + frame.pivot.x() - seams.origin_m.x()) - 0.5,
-                k * s * cell_, k * c * cell_,
-                k * (s * qx0 + c * qy0 + frame.pivot.y() - seams.origin_m.y()) - 0.5);
-  const cv::Mat src(seams.height, seams.width, CV_32F, const_cast<float*>(seams.seam.data()));
-  cv::Mat dst;
-  cv::warpAffine(src, dst, m, cv::Size(w_, h_), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                 cv::BORDER_CONSTANT, cv::Scalar(0));
-  // Seams between boxes are axis-aligned lines here: average along each axis so that lines keep
-  // their value and scattered dropouts fade, then keep the line-like part.
-  const int k_len = std::max(3, static_cast<int>(std::lround(0.04 / cell_)) | 1);
-  cv::Mat along_x, along_y;
-  cv::blur(dst, along_x, cv::Size(k_len, 1));
-  cv::blur(dst, along_y, cv::Size(1, k_len));
-  cv::Mat line = cv::max(along_x, along_y);
-  line = (line - 0.3) * (1.0 / 0.4);
-  cv::threshold(line, line, 1.0, 1.0, cv::THRESH_TRUNC);
-  cv::threshold(line, line, 0.0, 0.0, cv::THRESH_TOZERO);
-  cv::Mat sat;
-  cv::integral(line, sat, CV_64F);
-  sat_.assign(reinterpret_cast<const double*>(sat.data),
-              reinterpret_cast<const double*>(sat.data) + sat.total());
-  // Edge support: a seam line within a few millimetres of a box edge supports it (gaps have
-  // width); from the line-filtered raster, so that scattered dropouts and noise next to an edge
-  // do not count as a seam along it.
-  const int d = std::max(3, static_cast<int>(std::lround(0.008 / cell_)) * 2 + 1);
-  cv::Mat wide;
-  cv::dilate(line, wide, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(d, d)));
-  cv::integral(wide, sat, CV_64F);
-  sat_support_.assign(reinterpret_cast<const double*>(sat.data),
-                      reinterpret_cast<const double*>(sat.data) + sat.total());
-}
-
-double SeamTable::sum_cells(const std::vector<double>& sat, const Rect& r, double* cells) const {
-  // Bilinear lookup in the integral image: exact for values constant per cell, so strips at any
-  // offset (seam profiles) read without the bias of rounding to whole cells.
-  const double fx0 = std::clamp((r.x0 - x0_) / cell_, 0.0, static_cast<double>(w_));
-  const double fx1 = std::clamp((r.x1 - x0_) / cell_, 0.0, static_cast<double>(w_));
-  const double fy0 = std::clamp((r.y0 - y0_) / cell_, 0.0, static_cast<double>(h_));
-  const double fy1 = std::clamp((r.y1 - y0_) / cell_, 0.0, static_cast<double>(h_));
-  if (fx1 <= fx0 || fy1 <= fy0) {
-    *cells = 0;
-    return 0.0;
-  }
-  *cells = (fx1 - fx0) * (fy1 - fy0);
-  const auto W = static_cast<std::size_t>(w_ + 1);
-  auto sample = [&](double fx, double fy) {
-    const int ix = std::min(static_cast<int>(fx), w_ - 1), iy = std::min(static_cast<int>(fy), h_ - 1);
-    const double tx = fx - ix, ty = fy - iy;
-    auto at = [&](int row, int col) {
-      return sat[static_cast<std::size_t>(row) * W + static_cast<std::size_t>(col)];
-    };
-    return (1 - ty) * ((1 - tx) * at(iy, ix) + tx * at(iy, ix + 1)) +
-           ty * ((1 - tx) * at(iy + 1, ix) + tx * at(iy + 1, ix + 1));
-  };
-  return sample(fx1, fy1) - sample(fx0, fy1) - sample(fx1, fy0) + sample(fx0, fy0);
-}
-
-double SeamTable::mass(const Rect& r) const {
-  if (empty()) return 0.0;
-  double cells = 0;
-  return sum_cells(sat_, r, &cells) * cell_ * cell_;
-}
-
-double SeamTable::mean(const Rect& r) const {
-  if (empty()) return 0.0;
-  double cells = 0;
-  const double s = sum_cells(sat_, r, &cells);
-  return cells > 0 ? s / cells : 0.0;
-}
-
-double SeamTable::support(const Rect& r) const {
-  if (empty()) return 0.0;
-  double cells = 0;
-  const double s = sum_cells(sat_support_, r, &cells);
-  return cells > 0 ? s / cells : 0.0;
-}
-
 AreaOracle::AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method, double raster_cell_m,
                        double dilate_m)
     : polygon_(&frame_polygon), method_(method), dilate_m_(std::max(0.0, dilate_m)) {
-  if (method_ != AreaMethod::raster) return;
+  if (method_ != AreaMethod::kRaster) return;
   const Rect b = bounds_of(frame_polygon);
   // At most kMaxCells cells (about 40 MB with the summed-area table): a layer of many square
   // metres is rasterised more coarsely.
@@ -367,7 +273,7 @@ AreaOracle::AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method,
 }
 
 double AreaOracle::area(const Rect& r) const {
-  if (method_ != AreaMethod::raster) return clipped_area(*polygon_, r.x0, r.y0, r.x1, r.y1);
+  if (method_ != AreaMethod::kRaster) return clipped_area(*polygon_, r.x0, r.y0, r.x1, r.y1);
   // Bilinear lookup in the integral image: exact for a density constant per cell.
   const auto W = static_cast<std::size_t>(w_ + 1);
   auto sample = [&](double x, double y) {
@@ -407,14 +313,14 @@ FormatExtremes format_extremes(const std::vector<BoxFormat>& formats) {
 }
 
 double line_merge_tol_m(const LayoutParams& params, double min_short_m) {
-  return params.line_merge_tol_m > 0 ? params.line_merge_tol_m : std::clamp(0.06 * min_short_m, 0.006, 0.02);
+  return params.search.line_merge_tol_m > 0 ? params.search.line_merge_tol_m : std::clamp(0.06 * min_short_m, 0.006, 0.02);
 }
 
 double min_corner_edge_m(double min_short_m) { return std::max(0.02, 0.25 * min_short_m); }
 
 double tie_margin_m2(const LayoutParams& params, const std::vector<BoxFormat>& formats) {
   const FormatExtremes e = format_extremes(formats);
-  return params.ambiguity_margin * e.min_area_m2 + std::max(0.0, params.outline_tolerance_m) * e.min_short_m;
+  return params.search.ambiguity_margin * e.min_area_m2 + std::max(0.0, params.search.outline_tolerance_m) * e.min_short_m;
 }
 
 PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m) {

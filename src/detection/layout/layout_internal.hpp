@@ -198,7 +198,7 @@ struct Deadline {
   [[nodiscard]] bool passed() const { return std::chrono::steady_clock::now() >= end; }
 };
 
-/// Budget of one product search: node expansions (the primary, deterministic budget: the same
+/// Budget of one best-first search: node expansions (the primary, deterministic budget: the same
 /// input gives the same result whatever the machine load) and a wall-clock deadline (a safety
 /// cap only). Either running out ends the search with budget_exhausted.
 struct SearchBudget {
@@ -237,11 +237,11 @@ PolygonWithHoles simplified(const PolygonWithHoles& polygon, double tolerance_m)
 /// seed candidate lines; empty = all of them.
 using SeedEdgeFilter = std::function<bool(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& out)>;
 
-/// Product search in one layout frame. `frame_edges` (the simplified outline, same frame) gives
+/// best-first search in one layout frame. `frame_edges` (the simplified outline, same frame) gives
 /// the candidate lines; `frame_polygon` the exact areas. With `seams`, the score subtracts seam
 /// penalties; layouts covering less than `min_outline_score` [m^2] are pruned (so that seams
 /// only choose among layouts the outline supports).
-ComponentSolution search_product(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
+ComponentSolution search_best_first(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
                                  const std::vector<BoxFormat>& formats, const LayoutParams& params,
                                  const SeamTable* seams, const SearchBudget& budget,
                                  double min_outline_score = -1e300, const SeedEdgeFilter& seed_ok = {});

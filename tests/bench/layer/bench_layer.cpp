@@ -206,7 +206,7 @@ void sweep() {
       mid.short_m -= 2 * gap_mm / 1000.0;
       const SynthFrame fr = render_synthetic(ring, cam, noise);
       const LayerResult rr = extract_layer(fr.frame, fr.cloud, {}, {}, {}, 0.036);
-      if (rr.status == DetectionStatus::ok && rr.polygons.size() >= 1) {
+      if (rr.status == DetectionStatus::kOk && rr.polygons.size() >= 1) {
         std::size_t n = 0;
         for (const auto& p : rr.polygons) n += p.holes.size();
         if (n >= 1) ++holes[t];
@@ -215,7 +215,7 @@ void sweep() {
       SynthScene two = grid_layer(2, 1, gap_mm / 1000.0, 1.0, true);
       const SynthFrame ft = render_synthetic(two, cam, noise);
       const LayerResult rt = extract_layer(ft.frame, ft.cloud, {}, {}, {}, 0.036);
-      if (rt.status == DetectionStatus::ok && rt.polygons.size() == 2) ++clusters[t];
+      if (rt.status == DetectionStatus::kOk && rt.polygons.size() == 2) ++clusters[t];
     }
     std::printf("| %5.2f | %4.2f | %d / %d | %d / %d |\n", gap_mm, gap_mm / 1000.0 / pitch_m, holes[0], holes[1], clusters[0],
                 clusters[1]);
@@ -324,7 +324,7 @@ int main(int argc, char** argv) {
         const layer::TopPlane top = layer::find_top_plane(cloud, f.frame.intrinsics, PlaneParams{});
         double c1 = thread_cpu_ms();
         stage_ms[0].push_back(c1 - c);
-        if (top.status == DetectionStatus::ok) {
+        if (top.status == DetectionStatus::kOk) {
           c = c1;
           layer::LayerMask lm = layer::layer_mask(cloud, top.plane, layer::BandTable(top.noise, 0.0), PlaneParams{});
           c1 = thread_cpu_ms();
@@ -337,7 +337,7 @@ int main(int argc, char** argv) {
       }
       ++st.frames;
       st.time_ms.push_back(ms);
-      if (r.status != DetectionStatus::ok) {
+      if (r.status != DetectionStatus::kOk) {
         worst.push_back(f.name + ": " + to_string(r.status) + " " + r.reason);
         dump();
         st.iou.push_back(0.0);

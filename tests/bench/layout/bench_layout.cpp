@@ -1,4 +1,4 @@
-// Layout search benchmark: product search time for layers of 4..40 boxes (200 x 150 on
+// Layout search benchmark: best-first search time for layers of 4..40 boxes (200 x 150 on
 // 1200 x 1000, full and partial), other patterns, the area methods, and the paper mode's time as
 // a ratio with its cap. Prints markdown tables for docs/benchmarks.md.
 //
@@ -56,7 +56,7 @@ Run time_it(const std::vector<PolygonWithHoles>& outline, const std::vector<BoxF
 }
 
 const char* verdict(const KnownLayout& l, const LayoutResult& r) {
-  if (r.status != DetectionStatus::ok) return "no_layout";
+  if (r.status != DetectionStatus::kOk) return "no_layout";
   const bool exact = match_error(truth_boxes(l), r.boxes) >= 0.0;
   if (r.ambiguous) return exact ? "exact, ambiguous" : "ambiguous";
   return exact ? "exact" : "WRONG";
@@ -64,7 +64,7 @@ const char* verdict(const KnownLayout& l, const LayoutResult& r) {
 
 /// A 40-box layer whose right column is cut where the depth ends: find_layout without and with
 /// the surroundings (completion).
-void bench_unseen(const LayoutParams& product, int reps) {
+void bench_unseen(const LayoutParams& best_first, int reps) {
 std::printf("\n## Completion where the depth ends, 40-box layer (cut by a line 20 deg off its axis, seams given)\n\n");
 std::printf("| surroundings | median [ms] | CPU [ms] | boxes | completed | result |\n|---|---|---|---|---|---|\n");
 {
@@ -113,7 +113,7 @@ std::printf("| surroundings | median [ms] | CPU [ms] | boxes | completed | resul
     for (int ix = 0; ix < around.width; ++ix) {
       const Eigen::Vector2d q = around.origin_m + around.cell_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
       around.label[static_cast<std::size_t>(iy) * static_cast<std::size_t>(around.width) + static_cast<std::size_t>(ix)] =
-          inside(q) ? LayerSurroundings::level : f(q) > 0 ? LayerSurroundings::unseen : LayerSurroundings::below;
+          inside(q) ? LayerSurroundings::kLevel : f(q) > 0 ? LayerSurroundings::kUnseen : LayerSurroundings::kBelow;
     }
   }
   const std::vector<PolygonWithHoles> outline{cut};
@@ -125,7 +125,7 @@ std::printf("| surroundings | median [ms] | CPU [ms] | boxes | completed | resul
     for (int i = 0; i < reps; ++i) {
       const auto t0 = std::chrono::steady_clock::now();
       const double c0 = cpu_ms();
-      last = find_layout(outline, l.formats, product, &seams, with ? &around : nullptr);
+      last = find_layout(outline, l.formats, best_first, &seams, with ? &around : nullptr);
       cpu.push_back(cpu_ms() - c0);
       ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     }
@@ -160,7 +160,7 @@ int main(int argc, char** argv) {
   }
   if (argc >= 2 && std::strcmp(argv[1], "--unseen") == 0) {  // only the completion table
     LayoutParams p;
-    p.time_budget_ms = 1000;
+    p.search.time_budget_ms = 1000;
     bench_unseen(p, reps);
     return 0;
   }
@@ -174,16 +174,16 @@ int main(int argc, char** argv) {
     std::printf("median %.2f ms, cpu %.2f ms\n", r.median_ms, r.cpu_median_ms);
     return 0;
   }
-  LayoutParams product;
-  product.time_budget_ms = 1000;  // generous: we measure how long it needs
-  product.outline_tolerance_m = 0.0015;  // half a pitch of the synthetic seam raster, as solve_layout sets it
-  LayoutParams paper = product;
-  paper.search = SearchMode::paper;
-  paper.paper_max_hypotheses = paper_cap;
-  paper.time_budget_ms = paper_budget_ms;
+  LayoutParams best_first;
+  best_first.search.time_budget_ms = 1000;  // generous: we measure how long it needs
+  best_first.search.outline_tolerance_m = 0.0015;  // half a pitch of the synthetic seam raster, as solve_layout sets it
+  LayoutParams paper = best_first;
+  paper.search.mode = SearchMode::kPaper;
+  paper.search.paper_max_hypotheses = paper_cap;
+  paper.search.time_budget_ms = paper_budget_ms;
 
   std::printf("## Layout search, 200 x 150 boxes on 1200 x 1000 (full at 40, partial below)\n\n");
-  std::printf("| boxes | outline | seams | product median [ms] | CPU median [ms] | max [ms] | nodes | expansions | result | paper [ms] | paper hypotheses | paper cap hit | paper/product | paper result |\n");
+  std::printf("| boxes | outline | seams | best_first median [ms] | CPU median [ms] | max [ms] | nodes | expansions | result | paper [ms] | paper hypotheses | paper cap hit | paper/best_first | paper result |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int n : {4, 8, 12, 16, 24, 32, 40}) {
     KnownLayout l = grid_200x150(n);
@@ -195,7 +195,7 @@ int main(int argc, char** argv) {
       if (noisy) outline = perturb(outline, 0.002, 0.006, 11U);
       const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
       const SeamEvidence* sp = with_seams ? &seams : nullptr;
-      const Run pr = time_it(outline, l.formats, product, sp, reps);
+      const Run pr = time_it(outline, l.formats, best_first, sp, reps);
       std::string paper_cells = "| - | - | - | - | - ";
       if (variant == 1) {  // the paper scores the outline only
         const Run pp = time_it(outline, l.formats, paper, nullptr, 1);
@@ -218,7 +218,7 @@ int main(int argc, char** argv) {
     const auto outline = union_outline(l);
     const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
     for (bool ws : {true, false}) {
-      const Run r = time_it(outline, l.formats, product, ws ? &seams : nullptr, reps);
+      const Run r = time_it(outline, l.formats, best_first, ws ? &seams : nullptr, reps);
       std::printf("| %s | %zu | %s | %.2f | %.2f | %zu | %zu | %s |\n", l.name.c_str(), l.boxes.size(), ws ? "yes" : "no",
                   r.median_ms, r.cpu_median_ms, r.last.hypotheses_visited, r.last.search_expansions, verdict(l, r.last));
     }
@@ -232,18 +232,18 @@ int main(int argc, char** argv) {
     const auto outline = perturb(union_outline(l), 0.002, 0.006, 11U);
     const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
     const std::pair<AreaMethod, const char*> methods[] = {
-        {AreaMethod::grid_sat, "grid_sat (exact cells + SAT)"}, {AreaMethod::raster, "raster 3 mm + SAT"},
-        {AreaMethod::clip, "clip every query"}};
+        {AreaMethod::kGridSat, "grid_sat (exact cells + SAT)"}, {AreaMethod::kRaster, "raster 3 mm + SAT"},
+        {AreaMethod::kClip, "clip every query"}};
     for (bool ws : {false, true}) {
       for (const auto& [m, name] : methods) {
-        LayoutParams p = product;
-        p.area_method = m;
+        LayoutParams p = best_first;
+        p.search.area_method = m;
         const Run r = time_it(outline, l.formats, p, ws ? &seams : nullptr, reps);
         std::printf("| %s | %s | %.2f | %.2f | %s |\n", name, ws ? "yes" : "no", r.median_ms, r.cpu_median_ms,
                     verdict(l, r.last));
       }
     }
   }
-  bench_unseen(product, reps);
+  bench_unseen(best_first, reps);
   return 0;
 }

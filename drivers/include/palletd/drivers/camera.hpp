@@ -35,7 +35,7 @@ namespace palletd {
 
 struct CameraConfig;
 
-enum class CameraState { closed, open, streaming, faulted };
+enum class CameraState { kClosed, kOpen, kStreaming, kFaulted };
 
 /// "closed" | "open" | "streaming" | "faulted".
 const char* to_string(CameraState state);
@@ -145,7 +145,7 @@ class Camera {
  private:
   Status fail(std::string message);
 
-  std::atomic<CameraState> state_{CameraState::closed};
+  std::atomic<CameraState> state_{CameraState::kClosed};
   bool fault_pending_ = false;
   bool faulted_since_open_ = false;  ///< the next successful open() counts as a reconnect
   std::atomic<std::uint64_t> frames_{0};
@@ -207,7 +207,7 @@ class CameraSupervisor {
   /// True while the camera is streaming, its last grab or trigger did not fault it, and no
   /// control-channel call has been waiting for the camera longer than the control timeout.
   [[nodiscard]] bool camera_ok() const {
-    return camera_->state() == CameraState::streaming && camera_->control_call_age() < control_timeout_;
+    return camera_->state() == CameraState::kStreaming && camera_->control_call_age() < control_timeout_;
   }
   [[nodiscard]] CameraState state() const { return camera_->state(); }
   [[nodiscard]] CameraCounters counters() const { return camera_->counters(); }

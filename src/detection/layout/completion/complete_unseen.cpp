@@ -41,7 +41,7 @@ class SurroundTable {
     const cv::Mat src(around.height, around.width, CV_8U, const_cast<std::uint8_t*>(around.label.data()));
     cv::Mat dst;
     cv::warpAffine(src, dst, m, cv::Size(w_, h_), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
-                   cv::BORDER_CONSTANT, cv::Scalar(LayerSurroundings::unseen));
+                   cv::BORDER_CONSTANT, cv::Scalar(LayerSurroundings::kUnseen));
     for (std::size_t label = 0; label < 3; ++label) {
       cv::Mat is_label = dst == static_cast<int>(label);
       cv::Mat sat;
@@ -69,7 +69,7 @@ class SurroundTable {
       n = at(iy1, ix1) - at(iy0, ix1) - at(iy1, ix0) + at(iy0, ix0);
     }
     const double a = n * cell_ * cell_;
-    return label == LayerSurroundings::unseen ? a + std::max(0.0, r.area() - inside) : a;
+    return label == LayerSurroundings::kUnseen ? a + std::max(0.0, r.area() - inside) : a;
   }
   [[nodiscard]] double cell() const { return cell_; }
 
@@ -146,7 +146,7 @@ class Completer {
   }
 
   [[nodiscard]] bool usable() const {
-    return params_.unseen_min_fraction > 0.0 && !table_.empty() && !formats_.empty() &&
+    return params_.completion.unseen_min_fraction > 0.0 && !table_.empty() && !formats_.empty() &&
            poly_.outer.size() >= 3;
   }
 
@@ -226,18 +226,18 @@ class Completer {
                          x.box_on_plus ? x.pos + w : x.pos, y.box_on_plus ? y.pos + h : y.pos};
             double taken = 0.0;
             for (const auto& b : boxes) taken += overlap(r, b.rect);
-            if (taken >= params_.a_max_fraction * box_area) continue;
+            if (taken >= params_.search.a_max_fraction * box_area) continue;
             const double on_layer = clipped_area(poly_, r.x0, r.y0, r.x1, r.y1);
             const double gain = on_layer - taken;
             if (gain < kOpenFraction * box_area) continue;
-            const double unseen = table_.area(LayerSurroundings::unseen, r);
-            const double below = table_.area(LayerSurroundings::below, r);
-            const double level_off = std::max(0.0, table_.area(LayerSurroundings::level, r) - on_layer);
+            const double unseen = table_.area(LayerSurroundings::kUnseen, r);
+            const double below = table_.area(LayerSurroundings::kBelow, r);
+            const double level_off = std::max(0.0, table_.area(LayerSurroundings::kLevel, r) - on_layer);
             // A completion: part of the box is unseen, little of it is seen lower, and the layer
             // with what is unseen carries it as the search's A_min would.
-            if (unseen < 0.05 * box_area || below > (1.0 - params_.a_min_fraction) * box_area) continue;
-            if (on_layer + unseen + level_off < params_.a_min_fraction * box_area) continue;
-            if (gain < params_.unseen_min_fraction * box_area) {
+            if (unseen < 0.05 * box_area || below > (1.0 - params_.search.a_min_fraction) * box_area) continue;
+            if (on_layer + unseen + level_off < params_.search.a_min_fraction * box_area) continue;
+            if (gain < params_.completion.unseen_min_fraction * box_area) {
               *open = true;
               continue;
             }
@@ -304,7 +304,7 @@ UnseenCompletion complete_unseen(const std::vector<FrameBox>& boxes, const Polyg
                                  const std::vector<BoxFormat>& formats, const LayerSurroundings& around,
                                  const LayoutParams& params, const SearchBudget* research) {
   UnseenCompletion first = complete_boxes(boxes, frame_polygon, frame_edges, frame, formats, around, params);
-  if (research == nullptr || around.empty() || !(params.unseen_min_fraction > 0.0)) return first;
+  if (research == nullptr || around.empty() || !(params.completion.unseen_min_fraction > 0.0)) return first;
   // An outline edge is seen when something (the surface lower, another box) shows beyond it
   // within 50 mm (LayerParams::unobserved_gap_m's default) along most of it.
   const SeedEdgeFilter seen_edge = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b,
@@ -336,7 +336,7 @@ UnseenCompletion complete_unseen(const std::vector<FrameBox>& boxes, const Polyg
   // The search may have lined boxes up on an edge that is only where the depth ends: search
   // again with candidate lines from the seen edges alone, complete, keep the better explained.
   const ComponentSolution again =
-      search_product(frame_polygon, frame_edges, formats, params, nullptr, *research, -1e300, seen_edge);
+      search_best_first(frame_polygon, frame_edges, formats, params, nullptr, *research, -1e300, seen_edge);
   // Its near-equal layouts differ where the seen part cannot tell: each completed, the best
   // explained one (ties to the search's order).
   std::vector<std::vector<FrameBox>> layouts{again.found ? again.boxes : std::vector<FrameBox>{}};

@@ -32,7 +32,7 @@ BoxSupport box_support(const Box2d& box, const LayoutFrame& frame, const Polygon
   s.inside_fraction = box_area > 0 ? std::clamp(s.inside_area_m2 / box_area, 0.0, 1.0) : 0.0;
   s.score = s.inside_fraction;
   if (table == nullptr || table->empty()) return s;
-  const double m = params.seam_margin_m;
+  const double m = params.seams.margin_m;
   const double cell = table->cell();
   // Interior: the strongest row or column of seam inside the shrunk box.
   double crossing = 0;
@@ -57,7 +57,7 @@ BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component,
   frame.theta_rad = box.yaw_rad;
   frame.pivot = box.center;
   const PolygonWithHoles fp = frame.to_frame(component);
-  const double m = params.seam_margin_m;
+  const double m = params.seams.margin_m;
   const double hx = box.long_m / 2, hy = box.short_m / 2;
   SeamTable table;
   if (seams != nullptr && !seams->empty() && seams->strength > 0.0) {

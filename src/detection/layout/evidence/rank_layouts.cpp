@@ -43,13 +43,13 @@ double interior_crossing_m(const Rect& r, const SeamTable& table, double margin_
   double crossing = 0.0;
   for (double y = r.y0 + m; y + cell <= r.y1 - m; y += cell) {
     crossing = std::max(crossing, lx * median_along(r.x0 + m, r.x1 - m, [&](double s0, double s1) {
-                          return table.mean({s0, y, s1, y + cell});
-                        }));
+                                    return table.mean({s0, y, s1, y + cell});
+                                  }));
   }
   for (double x = r.x0 + m; x + cell <= r.x1 - m; x += cell) {
     crossing = std::max(crossing, ly * median_along(r.y0 + m, r.y1 - m, [&](double s0, double s1) {
-                          return table.mean({x, s0, x + cell, s1});
-                        }));
+                                    return table.mean({x, s0, x + cell, s1});
+                                  }));
   }
   return crossing;
 }
@@ -65,7 +65,7 @@ double seam_agreement(const std::vector<FrameBox>& boxes, const SeamTable& table
   auto layer_area = [&](const Rect& q) { return clipped_area(frame_polygon, q.x0, q.y0, q.x1, q.y1); };
   double agree = 0.0;
   for (const auto& fb : boxes) {
-    for_each_box_side(fb.rect, params.seam_margin_m, [&](const BoxSide& side) {
+    for_each_box_side(fb.rect, params.seams.margin_m, [&](const BoxSide& side) {
       double shared = 0.0;
       const double med = median_along(side.lo, side.hi, [&](double s0, double s1) {
         const Rect beyond = side.beyond(s0, s1);
@@ -75,7 +75,7 @@ double seam_agreement(const std::vector<FrameBox>& boxes, const SeamTable& table
       });
       agree += shared * med;
     });
-    agree -= interior_crossing_m(fb.rect, table, params.seam_margin_m);
+    agree -= interior_crossing_m(fb.rect, table, params.seams.margin_m);
   }
   return agree;
 }
@@ -92,7 +92,7 @@ Ranking rank_by_likelihood(const std::vector<Candidate>& cands, const std::vecto
     if (cands[n].orientation != slot) return {};
   }
   SeamLikelihood lik(*judge.seams, frames.frame(slot), frames.polygon(slot), judge.merge_tol_m,
-                     params.seam_margin_m, judge.absent_cap_nats);
+                     params.seams.margin_m, judge.absent_cap_nats);
   std::vector<const std::vector<FrameBox>*> layouts;
   for (std::size_t n : near) layouts.push_back(&cands[n].boxes);
   if (!lik.calibrate(layouts)) {
@@ -101,7 +101,8 @@ Ranking rank_by_likelihood(const std::vector<Candidate>& cands, const std::vecto
   }
   // Evidence of each against the outline's best, then the winner against every other.
   std::vector<double> ev(near.size(), 0.0);
-  for (std::size_t i = 1; i < near.size(); ++i) ev[i] = lik.compare(cands[near[i]].boxes, cands[near[0]].boxes);
+  for (std::size_t i = 1; i < near.size(); ++i)
+    ev[i] = lik.compare(cands[near[i]].boxes, cands[near[0]].boxes);
   const auto w = static_cast<std::size_t>(std::max_element(ev.begin(), ev.end()) - ev.begin());
   double margin_nats = 1e300;
   for (std::size_t i = 0; i < near.size(); ++i) {
@@ -127,8 +128,10 @@ Ranking rank_by_agreement(const std::vector<Candidate>& cands, const std::vector
     agree[n] = t == nullptr ? 0.0 : seam_agreement(cands[n].boxes, *t, frames.polygon(slot), params);
   }
   Ranking r{near, false};
-  std::stable_sort(r.order.begin(), r.order.end(), [&](std::size_t a, std::size_t b) { return agree[a] > agree[b]; });
-  r.ambiguous = seams_invisible || agree[r.order[0]] - agree[r.order[1]] < kSeamSeparation * judge.min_short_m;
+  std::stable_sort(r.order.begin(), r.order.end(),
+                   [&](std::size_t a, std::size_t b) { return agree[a] > agree[b]; });
+  r.ambiguous =
+      seams_invisible || agree[r.order[0]] - agree[r.order[1]] < kSeamSeparation * judge.min_short_m;
   return r;
 }
 
@@ -156,7 +159,8 @@ std::vector<std::size_t> near_equal_candidates(const std::vector<Candidate>& sor
     bool dup = false;
     for (std::size_t n : near) {
       const Candidate& o = sorted[n];
-      dup = dup || (std::abs(c.frame.theta_rad - o.frame.theta_rad) < 1e-9 && same_layout(c.boxes, o.boxes, same_tol_m));
+      dup = dup || (std::abs(c.frame.theta_rad - o.frame.theta_rad) < 1e-9 &&
+                    same_layout(c.boxes, o.boxes, same_tol_m));
     }
     if (!dup) near.push_back(k);
   }
@@ -182,7 +186,7 @@ bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands
   std::unique_ptr<SeamLikelihood> lik;
   if (judge.seams != nullptr) {
     lik = std::make_unique<SeamLikelihood>(*judge.seams, best.frame, frames.polygon(best.orientation),
-                                           judge.merge_tol_m, params.seam_margin_m, judge.absent_cap_nats);
+                                           judge.merge_tol_m, params.seams.margin_m, judge.absent_cap_nats);
     const std::vector<FrameBox> overlay = moves_overlay(best.boxes, moves);
     std::vector<const std::vector<FrameBox>*> calibration{&best.boxes, &overlay};
     for (std::size_t n : near) {

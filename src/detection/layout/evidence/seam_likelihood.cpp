@@ -8,6 +8,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "evidence/seam_raster.hpp"
+
 namespace palletd::layout_detail {
 
 namespace {
@@ -57,15 +59,8 @@ SeamLikelihood::SeamLikelihood(const SeamEvidence& seams, const LayoutFrame& fra
   }
   // The raw raster (no line filter) turned into the frame: the likelihood does its own
   // averaging along the predicted lines.
-  const double c = std::cos(frame.theta_rad), s = std::sin(frame.theta_rad);
-  const double k = 1.0 / seams.cell_m;
-  const double qx0 = x0_ + 0.5 * cell_, qy0 = y0_ + 0.5 * cell_;
-  cv::Matx23d m(k * c * cell_, -k * s * cell_, k * (c * qx0 - s * qy0 + frame.pivot.x() - seams.origin_m.x()) - 0.5,
-                k * s * cell_, k * c * cell_, k * (s * qx0 + c * qy0 + frame.pivot.y() - seams.origin_m.y()) - 0.5);
-  const cv::Mat src(seams.height, seams.width, CV_32F, const_cast<float*>(seams.seam.data()));
-  cv::Mat dst, sat;
-  cv::warpAffine(src, dst, m, cv::Size(w_, h_), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
-                 cv::Scalar(0));
+  const cv::Mat dst = seams_in_frame(seams, frame, x0_, y0_, w_, h_);
+  cv::Mat sat;
   cv::integral(dst, sat, CV_64F);
   sat_.assign(reinterpret_cast<const double*>(sat.data), reinterpret_cast<const double*>(sat.data) + sat.total());
 }
@@ -77,14 +72,7 @@ double SeamLikelihood::strip_mean(double x0, double y0, double x1, double y1) co
   const double fy1 = std::clamp((y1 - y0_) / cell_, 0.0, static_cast<double>(h_));
   const double cells = (fx1 - fx0) * (fy1 - fy0);
   if (!(cells > 0)) return 0.0;
-  const auto W = static_cast<std::size_t>(w_ + 1);
-  auto sample = [&](double fx, double fy) {
-    const int ix = std::min(static_cast<int>(fx), w_ - 1), iy = std::min(static_cast<int>(fy), h_ - 1);
-    const double tx = fx - ix, ty = fy - iy;
-    auto at = [&](int row, int col) { return sat_[static_cast<std::size_t>(row) * W + static_cast<std::size_t>(col)]; };
-    return (1 - ty) * ((1 - tx) * at(iy, ix) + tx * at(iy, ix + 1)) + ty * ((1 - tx) * at(iy + 1, ix) + tx * at(iy + 1, ix + 1));
-  };
-  return (sample(fx1, fy1) - sample(fx0, fy1) - sample(fx1, fy0) + sample(fx0, fy0)) / cells;
+  return sat_sum_bilinear(sat_, w_, h_, fx0, fy0, fx1, fy1) / cells;
 }
 
 double SeamLikelihood::contrast(const PieceKey& k, double pos) const {

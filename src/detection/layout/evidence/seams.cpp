@@ -275,7 +275,7 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
                                  const LayerResult& layer, const SeamParams& params) {
   SeamEvidence ev;
   const Intrinsics& in = frame.intrinsics;
-  if (layer.status != DetectionStatus::ok || layer.polygons.empty() || !in.valid() ||
+  if (layer.status != DetectionStatus::kOk || layer.polygons.empty() || !in.valid() ||
       cloud.width != in.width || cloud.height != in.height ||
       cloud.points.size() != frame.pixel_count()) {
     return ev;

@@ -15,16 +15,16 @@
 namespace palletd {
 
 std::uint8_t LayerSurroundings::at_point(const Eigen::Vector2d& p_m) const {
-  if (empty()) return unseen;
+  if (empty()) return kUnseen;
   const double fx = (p_m.x() - origin_m.x()) / cell_m, fy = (p_m.y() - origin_m.y()) / cell_m;
-  if (!(fx >= 0 && fy >= 0 && fx < width && fy < height)) return unseen;
+  if (!(fx >= 0 && fy >= 0 && fx < width && fy < height)) return kUnseen;
   return at(static_cast<int>(fx), static_cast<int>(fy));
 }
 
 bool LayerSurroundings::seen_within(const Eigen::Vector2d& p_m, const Eigen::Vector2d& dir,
                                     double reach_m) const {
   for (double u = 0.0; u <= reach_m; u += 0.5 * cell_m) {
-    if (at_point(p_m + u * dir) != unseen) return true;
+    if (at_point(p_m + u * dir) != kUnseen) return true;
   }
   return false;
 }
@@ -33,7 +33,7 @@ LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCl
                                            const LayerResult& layer, double reach_m) {
   LayerSurroundings out;
   const Intrinsics& in = frame.intrinsics;
-  if (layer.status != DetectionStatus::ok || layer.polygons.empty() || !in.valid() ||
+  if (layer.status != DetectionStatus::kOk || layer.polygons.empty() || !in.valid() ||
       cloud.width != in.width || cloud.height != in.height || cloud.points.size() != frame.pixel_count() ||
       !(reach_m >= 0.0)) {
     return out;
@@ -57,13 +57,13 @@ LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCl
       double fx = 0.0, fy = 0.0;
       if (!geo->cell_of(u, v, &fx, &fy)) continue;
       const Eigen::Vector3f& p = cloud.at(u, v);
-      int label = LayerSurroundings::unseen;
+      int label = LayerSurroundings::kUnseen;
       if (std::isfinite(p.x()) && std::isfinite(p.z())) {
         const double s = plane.signed_distance(p.cast<double>());  // + towards the camera
         if (s < -band_m) {
-          label = LayerSurroundings::below;
+          label = LayerSurroundings::kBelow;
         } else if (s <= band_m) {
-          label = LayerSurroundings::level;
+          label = LayerSurroundings::kLevel;
         }
       }
       votes[static_cast<std::size_t>(label)].at<float>(static_cast<int>(fy), static_cast<int>(fx)) += 1.f;
@@ -74,7 +74,7 @@ LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCl
   for (std::size_t k = 0; k < 3; ++k)
     cv::boxFilter(votes[k], near[k], CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false);
   out.label.assign(static_cast<std::size_t>(out.width) * static_cast<std::size_t>(out.height),
-                   LayerSurroundings::unseen);
+                   LayerSurroundings::kUnseen);
   for (int y = 0; y < out.height; ++y) {
     for (int x = 0; x < out.width; ++x) {
       const bool own = votes[0].at<float>(y, x) + votes[1].at<float>(y, x) + votes[2].at<float>(y, x) > 0.f;
@@ -82,11 +82,11 @@ LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCl
       const float n_unseen = src[0].at<float>(y, x), n_level = src[1].at<float>(y, x),
                   n_below = src[2].at<float>(y, x);
       // Seen lower wins a tie with unseen: a box is never completed into a spot seen empty.
-      std::uint8_t label = LayerSurroundings::unseen;
+      std::uint8_t label = LayerSurroundings::kUnseen;
       if (n_level > n_below && n_level > n_unseen) {
-        label = LayerSurroundings::level;
+        label = LayerSurroundings::kLevel;
       } else if (n_below > 0.f && n_below >= n_unseen) {
-        label = LayerSurroundings::below;
+        label = LayerSurroundings::kBelow;
       }
       out.label[static_cast<std::size_t>(y) * static_cast<std::size_t>(out.width) +
                 static_cast<std::size_t>(x)] = label;
@@ -99,7 +99,7 @@ std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& 
                                       double min_drop_m) {
   std::vector<RimPixel> rim;
   const Intrinsics& in = frame.intrinsics;
-  if (layer.status != DetectionStatus::ok || layer.polygons.empty() || !in.valid() ||
+  if (layer.status != DetectionStatus::kOk || layer.polygons.empty() || !in.valid() ||
       cloud.width != in.width || cloud.height != in.height || cloud.points.size() != frame.pixel_count()) {
     return rim;
   }

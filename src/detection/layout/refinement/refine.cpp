@@ -13,8 +13,8 @@
 #include <cmath>
 #include <limits>
 
-#include "layout_internal.hpp"
 #include "evidence/layout_scoring.hpp"
+#include "layout_internal.hpp"
 #include "refinement/refine_internal.hpp"
 
 namespace palletd {
@@ -32,7 +32,7 @@ const double kMaxYawChange_rad = 5.0 * M_PI / 180.0;
 std::vector<std::vector<std::size_t>> boxes_per_component(const LayoutResult& found, std::size_t components) {
   std::vector<std::vector<std::size_t>> members(components);
   for (std::size_t bi = 0; bi < found.boxes.size(); ++bi) {
-    const auto ci = static_cast<std::size_t>(found.box_component[bi]);
+    const auto ci = static_cast<std::size_t>(found.boxes[bi].component);
     if (ci < components) members[ci].push_back(bi);
   }
   return members;
@@ -53,7 +53,7 @@ void turn_boxes(const std::vector<ComponentFit>& fits, const std::vector<double>
   }
   const double layer_turn = std::atan2(sum_s, sum_c) / 4;
   for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
-    const auto ci = static_cast<std::size_t>(found.box_component[bi]);
+    const auto ci = static_cast<std::size_t>(found.boxes[bi].component);
     if (ci >= fits.size() || !fits[ci].built || !std::isfinite(box_turn[bi])) continue;
     const ComponentFit& cf = fits[ci];
     const double delta = std::remainder(cf.turn_rad - layer_turn, M_PI / 2);
@@ -68,11 +68,12 @@ void rescore(const std::vector<ComponentFit>& fits, const LayoutResult& found, d
              const LayoutParams& params, LayoutResult& out) {
   double covered = 0;
   for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
-    const auto ci = static_cast<std::size_t>(found.box_component[bi]);
+    const auto ci = static_cast<std::size_t>(found.boxes[bi].component);
     if (ci >= fits.size() || !fits[ci].built) continue;
     const ComponentFit& cf = fits[ci];
-    const BoxSupport s = box_support(out.boxes[bi], cf.frame, cf.polygon, cf.table.empty() ? nullptr : &cf.table, params);
-    out.box_scores[bi] = s.score;
+    const BoxSupport s =
+        box_support(out.boxes[bi], cf.frame, cf.polygon, cf.table.empty() ? nullptr : &cf.table, params);
+    out.boxes[bi].score = s.score;
     covered += s.inside_area_m2;
   }
   if (layer_area_m2 > 0) out.coverage = std::min(1.0, covered / layer_area_m2);
@@ -85,21 +86,22 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                            const LayoutParams& params, const LayerSurroundings* surroundings,
                            const std::vector<RimPixel>* rim) {
   LayoutResult out = found;
-  if (found.status != DetectionStatus::ok || found.boxes.empty()) return out;
+  if (found.status != DetectionStatus::kOk || found.boxes.empty()) return out;
   double layer_area = 0;
   for (const auto& p : layer.polygons) layer_area += area(p);
   const PointGrid grid(layer.points_2d, kGridCell_m);
   const bool use_seams = seams != nullptr && !seams->empty() && seams->strength > 0;
   RefineContext ctx{layer, formats, params, use_seams ? seams : nullptr, surroundings, rim, grid};
-  ctx.pitch_m = layer.points_2d.empty() ? 0.003 : std::sqrt(layer_area / static_cast<double>(layer.points_2d.size()));
+  ctx.pitch_m =
+      layer.points_2d.empty() ? 0.003 : std::sqrt(layer_area / static_cast<double>(layer.points_2d.size()));
   // How far a side may lie from where the search put it: the search packs nominal boxes
   // without gaps, so interior sides are off by the gaps and size deviations accumulated.
-  ctx.window_m = std::max(0.03, 2.5 * params.seam_margin_m);
+  ctx.window_m = std::max(0.03, 2.5 * params.seams.margin_m);
   // The camera in the layer frame: which box sides face it decides where an edge lies within
   // the pixel footprint (refine_joint.hpp). Unknown (no camera above the plane): no correction.
   ctx.camera_layer = layer.T_camera_layer.inverse().translation();
   ctx.view_known = ctx.camera_layer.z() > 0.1;
-  const double yaw_sigma_rad = params.refine_yaw_sigma_deg * M_PI / 180.0;
+  const double yaw_sigma_rad = params.refine.yaw_sigma_deg * M_PI / 180.0;
   const double w_prior = yaw_sigma_rad > 0 ? 1.0 / (yaw_sigma_rad * yaw_sigma_rad) : 1e300;
 
   std::vector<ComponentFit> fits(layer.polygons.size());
@@ -108,7 +110,7 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
   const std::vector<std::vector<std::size_t>> members = boxes_per_component(found, layer.polygons.size());
   for (std::size_t ci = 0; ci < members.size(); ++ci) {
     if (members[ci].empty()) continue;
-    fits[ci] = fit_component(members[ci], layer.polygons[ci], ctx, found, w_prior, out.boxes, box_turn);
+    fits[ci] = fit_component(members[ci], layer.polygons[ci], ctx, w_prior, out.boxes, box_turn);
   }
   turn_boxes(fits, box_turn, w_prior, found, out);
   rescore(fits, found, layer_area, params, out);

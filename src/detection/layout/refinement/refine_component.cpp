@@ -31,8 +31,8 @@ constexpr double kMaxShiftShare = 0.25;
 /// A box's evidence in the component frame.
 struct BoxEvidence {
   JointBox jb;
-  bool along_x = true;                 ///< its long side along the frame's x
-  double pitch_m = 0.0;                ///< pixel pitch on its top
+  bool along_x = true;                  ///< its long side along the frame's x
+  double pitch_m = 0.0;                 ///< pixel pitch on its top
   std::vector<Eigen::Vector2d> points;  ///< layer points around it
   std::vector<Eigen::Vector3d> rim;     ///< rim pixels around it: (x, y) in the frame, top share
 };
@@ -44,7 +44,8 @@ struct SideTurn {
 };
 
 /// The component's frame: its first box's orientation mod 90 deg about its outline's centroid.
-ComponentFit component_frame(double first_yaw_rad, const PolygonWithHoles& polygon, const RefineContext& ctx) {
+ComponentFit component_frame(double first_yaw_rad, const PolygonWithHoles& polygon,
+                             const RefineContext& ctx) {
   ComponentFit cf;
   cf.built = true;
   double theta = std::fmod(first_yaw_rad, M_PI / 2);
@@ -56,15 +57,17 @@ ComponentFit component_frame(double first_yaw_rad, const PolygonWithHoles& polyg
   cf.frame.pivot = c;
   cf.polygon = cf.frame.to_frame(polygon);
   const Rect b = bounds_of(cf.polygon);
-  const double m = ctx.params.seam_margin_m;
-  if (ctx.seams != nullptr) cf.table = SeamTable(*ctx.seams, cf.frame, Rect{b.x0 - 2 * m, b.y0 - 2 * m, b.x1 + 2 * m, b.y1 + 2 * m});
+  const double m = ctx.params.seams.margin_m;
+  if (ctx.seams != nullptr)
+    cf.table = SeamTable(*ctx.seams, cf.frame, Rect{b.x0 - 2 * m, b.y0 - 2 * m, b.x1 + 2 * m, b.y1 + 2 * m});
   return cf;
 }
 
 /// Each box's nominal and current extent in the frame and the layer points and rim pixels
 /// around it; a box with enough points inside gets the pitch measured on its own top.
-std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx, const std::vector<Box2d>& boxes,
-                                         const ComponentFit& cf, const RefineContext& ctx) {
+std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
+                                         const std::vector<LayoutBox>& boxes, const ComponentFit& cf,
+                                         const RefineContext& ctx) {
   std::vector<Eigen::Vector3d> rim_frame;  // the whole rim in this component's frame
   if (ctx.rim != nullptr) {
     rim_frame.reserve(ctx.rim->size());
@@ -86,14 +89,15 @@ std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx, co
       nl = ctx.formats[static_cast<std::size_t>(box.format)].long_m;
       ns = ctx.formats[static_cast<std::size_t>(box.format)].short_m;
     }
-    e.jb.half = e.along_x ? Eigen::Vector2d(box.long_m / 2, box.short_m / 2) : Eigen::Vector2d(box.short_m / 2, box.long_m / 2);
+    e.jb.half = e.along_x ? Eigen::Vector2d(box.long_m / 2, box.short_m / 2)
+                          : Eigen::Vector2d(box.short_m / 2, box.long_m / 2);
     e.jb.half_nominal = e.along_x ? Eigen::Vector2d(nl / 2, ns / 2) : Eigen::Vector2d(ns / 2, nl / 2);
     // Points a gap beyond the window: an outline edge is seen where its points end.
     const double collect = window + 5.0 * ctx.pitch_m;
     const double reach = e.jb.half.norm() + collect;
     std::size_t inside = 0;
-    ctx.grid.visit(box.center.x() - reach, box.center.y() - reach, box.center.x() + reach, box.center.y() + reach,
-                   [&](const Eigen::Vector2f& p) {
+    ctx.grid.visit(box.center.x() - reach, box.center.y() - reach, box.center.x() + reach,
+                   box.center.y() + reach, [&](const Eigen::Vector2f& p) {
                      const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(p.cast<double>()));
                      const Eigen::Vector2d d = (q - e.jb.center).cwiseAbs();
                      if (d.x() > e.jb.half.x() + collect || d.y() > e.jb.half.y() + collect) return;
@@ -105,7 +109,8 @@ std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx, co
       if (d.x() > e.jb.half.x() + collect || d.y() > e.jb.half.y() + collect) continue;
       e.rim.push_back(r);
     }
-    const double inner_area = std::max(0.0, 2 * (e.jb.half.x() - window)) * std::max(0.0, 2 * (e.jb.half.y() - window));
+    const double inner_area =
+        std::max(0.0, 2 * (e.jb.half.x() - window)) * std::max(0.0, 2 * (e.jb.half.y() - window));
     if (inside > 50) e.pitch_m = std::sqrt(inner_area / static_cast<double>(inside));
   }
   return ev;
@@ -124,8 +129,9 @@ double view_slope_of(const SideRef& s, int axis, int sign, const ComponentFit& c
 
 /// Where the depth ends beyond the outline a box's points end without a box edge: only the
 /// samples of a partly unseen box with something seen beyond them within kUnseenGap_m are kept.
-std::vector<Eigen::Vector2d> seen_samples(std::vector<Eigen::Vector2d> v, bool partly_unseen, int axis, int sign,
-                                          double pitch_m, const ComponentFit& cf, const RefineContext& ctx) {
+std::vector<Eigen::Vector2d> seen_samples(std::vector<Eigen::Vector2d> v, bool partly_unseen, int axis,
+                                          int sign, double pitch_m, const ComponentFit& cf,
+                                          const RefineContext& ctx) {
   if (ctx.surroundings == nullptr || ctx.surroundings->empty() || !partly_unseen) return v;
   Eigen::Vector2d dir = Eigen::Vector2d::Zero();
   dir[axis] = sign;
@@ -171,7 +177,7 @@ std::vector<Eigen::Vector2d> shared_side_samples(const SideRef& s, const std::ve
 SideResult measure_side(const BoxEvidence& e, std::size_t k, int axis, int sign, bool partly_unseen,
                         const ComponentFit& cf, const RefineContext& ctx) {
   SideResult r;
-  const double m = ctx.params.seam_margin_m;
+  const double m = ctx.params.seams.margin_m;
   const double lp = e.pitch_m;
   const SideRef s = side_of(e.jb, axis, sign, m);
   if (s.hi <= s.lo) return r;
@@ -179,17 +185,20 @@ SideResult measure_side(const BoxEvidence& e, std::size_t k, int axis, int sign,
   const double a0 = s.pos + sign * m, a1 = s.pos + sign * 3 * m;
   const Rect beyond = axis == 0 ? Rect{std::min(a0, a1), s.lo, std::max(a0, a1), s.hi}
                                 : Rect{s.lo, std::min(a0, a1), s.hi, std::max(a0, a1)};
-  const bool shared = clipped_area(cf.polygon, beyond.x0, beyond.y0, beyond.x1, beyond.y1) > 0.5 * beyond.area();
+  const bool shared =
+      clipped_area(cf.polygon, beyond.x0, beyond.y0, beyond.x1, beyond.y1) > 0.5 * beyond.area();
   const double view_slope = ctx.view_known ? view_slope_of(s, axis, sign, cf, ctx) : 0.0;
-  const double shift_outline = ctx.view_known ? outline_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
+  const double shift_outline =
+      ctx.view_known ? outline_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
   // Mixed pixels measure where the edge lies in their footprint unless the side faces the
   // camera (its pixels then mix the top with the wall, not with what lies beyond).
   const std::vector<Eigen::Vector3d>* side_rim = !ctx.view_known || view_slope <= 0.0 ? &e.rim : nullptr;
-  const double shift_seam = ctx.view_known ? sign * seam_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
+  const double shift_seam =
+      ctx.view_known ? sign * seam_footprint_correction(view_slope, lp, kMinDrop_m) : 0.0;
   const bool from_seams = shared && ctx.seams != nullptr;
-  const std::vector<Eigen::Vector2d> own = seen_samples(
-      outline_samples(s, e.points, side_rim, lp, ctx.window_m, win_in, shift_outline), partly_unseen, axis, sign, lp,
-      cf, ctx);
+  const std::vector<Eigen::Vector2d> own =
+      seen_samples(outline_samples(s, e.points, side_rim, lp, ctx.window_m, win_in, shift_outline),
+                   partly_unseen, axis, sign, lp, cf, ctx);
   const std::vector<Eigen::Vector2d> samples =
       from_seams ? shared_side_samples(s, own, shift_seam, win_in, lp, cf, ctx) : own;
   const double floor_m = 0.3 * (from_seams ? ctx.seams->cell_m : lp);
@@ -222,8 +231,9 @@ SideResult measure_side(const BoxEvidence& e, std::size_t k, int axis, int sign,
 
 /// Adjacent boxes: every pair keeps apart (solid boxes do not overlap); pairs pressed together
 /// (no seam seen on either side) touch.
-void neighbour_contacts(const std::vector<BoxEvidence>& ev, const std::vector<std::array<std::array<bool, 2>, 2>>& pressed,
-                        double m, std::vector<Contact>& neighbours, std::vector<Contact>& contacts) {
+void neighbour_contacts(const std::vector<BoxEvidence>& ev,
+                        const std::vector<std::array<std::array<bool, 2>, 2>>& pressed, double m,
+                        std::vector<Contact>& neighbours, std::vector<Contact>& contacts) {
   const std::size_t n = ev.size();
   for (std::size_t a = 0; a < n; ++a) {
     for (std::size_t bj = 0; bj < n; ++bj) {
@@ -299,8 +309,10 @@ PointGrid::PointGrid(const std::vector<Eigen::Vector2f>& pts, double cell_m) : p
   x0_ = y0_ = 1e300;
   double x1 = -1e300, y1 = -1e300;
   for (const auto& p : pts) {
-    x0_ = std::min(x0_, static_cast<double>(p.x())); x1 = std::max(x1, static_cast<double>(p.x()));
-    y0_ = std::min(y0_, static_cast<double>(p.y())); y1 = std::max(y1, static_cast<double>(p.y()));
+    x0_ = std::min(x0_, static_cast<double>(p.x()));
+    x1 = std::max(x1, static_cast<double>(p.x()));
+    y0_ = std::min(y0_, static_cast<double>(p.y()));
+    y1 = std::max(y1, static_cast<double>(p.y()));
   }
   w_ = static_cast<int>((x1 - x0_) / cell_) + 1;
   h_ = static_cast<int>((y1 - y0_) / cell_) + 1;
@@ -314,8 +326,8 @@ int PointGrid::column(double x) const { return std::clamp(static_cast<int>((x - 
 int PointGrid::row(double y) const { return std::clamp(static_cast<int>((y - y0_) / cell_), 0, h_ - 1); }
 
 ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWithHoles& polygon,
-                           const RefineContext& ctx, const LayoutResult& found, double w_prior,
-                           std::vector<Box2d>& boxes, std::vector<double>& box_turn) {
+                           const RefineContext& ctx, double w_prior, std::vector<LayoutBox>& boxes,
+                           std::vector<double>& box_turn) {
   ComponentFit cf = component_frame(boxes[idx.front()].yaw_rad, polygon, ctx);
   const std::vector<BoxEvidence> ev = gather_evidence(idx, boxes, cf, ctx);
   const std::size_t n = idx.size();
@@ -324,7 +336,7 @@ ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWit
   std::vector<std::array<std::array<bool, 2>, 2>> pressed(n);  // [box][axis][side]
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t bi = idx[k];
-    const bool partly_unseen = bi < found.box_partly_unseen.size() && found.box_partly_unseen[bi];
+    const bool partly_unseen = boxes[bi].partly_unseen;
     for (int axis = 0; axis < 2; ++axis) {
       for (int si = 0; si < 2; ++si) {
         const SideResult r = measure_side(ev[k], k, axis, si == 0 ? -1 : 1, partly_unseen, cf, ctx);
@@ -336,18 +348,19 @@ ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWit
     }
   }
   std::vector<Contact> contacts, neighbours;
-  neighbour_contacts(ev, pressed, ctx.params.seam_margin_m, neighbours, contacts);
+  neighbour_contacts(ev, pressed, ctx.params.seams.margin_m, neighbours, contacts);
   std::vector<JointBox> fitted(n);
   for (std::size_t k = 0; k < n; ++k) fitted[k] = ev[k].jb;
   JointParams jp;
-  jp.size_tolerance_m = ctx.params.refine_size_tolerance_m;
-  jp.size_sigma_m = ctx.params.refine_size_tolerance_m / 2;
+  jp.size_tolerance_m = ctx.params.refine.size_tolerance_m;
+  jp.size_sigma_m = ctx.params.refine.size_tolerance_m / 2;
   solve_joint(fitted, sides, contacts, jp, neighbours);
   const std::vector<double> own_turn = component_turns(turns, n, w_prior, cf);
   for (std::size_t k = 0; k < n; ++k) {
     Box2d& box = boxes[idx[k]];
     const Eigen::Vector2d shift = fitted[k].center - ev[k].jb.center;
-    if (!fitted[k].center.allFinite() || shift.norm() > kMaxShiftShare * box.short_m) continue;  // wrong association
+    if (!fitted[k].center.allFinite() || shift.norm() > kMaxShiftShare * box.short_m)
+      continue;  // wrong association
     box.center = cf.frame.to_layer(fitted[k].center);
     const Eigen::Vector2d size = 2 * fitted[k].half;
     box.long_m = ev[k].along_x ? size.x() : size.y();

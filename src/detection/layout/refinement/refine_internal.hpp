@@ -46,14 +46,14 @@ struct RefineContext {
   const LayerResult& layer;
   const std::vector<BoxFormat>& formats;
   const LayoutParams& params;
-  const SeamEvidence* seams = nullptr;             ///< null when there is no usable seam evidence
+  const SeamEvidence* seams = nullptr;  ///< null when there is no usable seam evidence
   const LayerSurroundings* surroundings = nullptr;
   const std::vector<RimPixel>* rim = nullptr;
-  const PointGrid& grid;                           ///< the layer points
-  double pitch_m = 0.0;      ///< mean pixel pitch on the layer
-  double window_m = 0.0;     ///< how far a side may lie from where the search put it
+  const PointGrid& grid;  ///< the layer points
+  double pitch_m = 0.0;   ///< mean pixel pitch on the layer
+  double window_m = 0.0;  ///< how far a side may lie from where the search put it
   Eigen::Vector3d camera_layer = Eigen::Vector3d::Zero();  ///< the camera in the layer frame
-  bool view_known = false;   ///< the camera is above the plane (footprint corrections apply)
+  bool view_known = false;  ///< the camera is above the plane (footprint corrections apply)
 };
 
 /// A component's refinement: its layout frame and measured turn.
@@ -68,10 +68,9 @@ struct ComponentFit {
 
 /// Fits the boxes `idx` of component `polygon` jointly and writes their centres and sizes into
 /// `boxes`; `box_turn[i]` receives each refined box's own turn against its component (left
-/// unchanged where the fit is rejected). `found` tells which boxes were completed where the
-/// depth ends. `w_prior` = 1 / (refine_yaw_sigma)^2.
+/// unchanged where the fit is rejected). `w_prior` = 1 / (RefineParams::yaw_sigma_deg)^2 [rad^-2].
 ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWithHoles& polygon,
-                           const RefineContext& ctx, const LayoutResult& found, double w_prior,
-                           std::vector<Box2d>& boxes, std::vector<double>& box_turn);
+                           const RefineContext& ctx, double w_prior, std::vector<LayoutBox>& boxes,
+                           std::vector<double>& box_turn);
 
 }  // namespace palletd::layout_detail

@@ -5,9 +5,9 @@
 #include <memory>
 #include <set>
 
-#include "search/search_product_internal.hpp"
+#include "search/best_first_internal.hpp"
 
-namespace palletd::layout_detail::product {
+namespace palletd::layout_detail::best_first {
 
 /// Candidate lines on one axis: seeds closed under adding every (signed) box side, merged within tol.
 std::vector<double> close_lines(std::vector<std::pair<double, double>> seeds /* (pos, weight) */,
@@ -131,7 +131,7 @@ class GrownLayerTest {
     const double w = r.x1 - r.x0, h = r.y1 - r.y0;
     if (!(grow_m_ > 0.0) || a + 2.0 * grow_m_ * (w + h) + 4.0 * grow_m_ * grow_m_ <= need) return false;
     if (!grown_) {
-      grown_ = std::make_unique<AreaOracle>(*poly_, AreaMethod::raster, std::min(raster_cell_m_, grow_m_),
+      grown_ = std::make_unique<AreaOracle>(*poly_, AreaMethod::kRaster, std::min(raster_cell_m_, grow_m_),
                                             grow_m_);
     }
     return grown_->area(r) > need;
@@ -146,7 +146,7 @@ class GrownLayerTest {
 
 }  // namespace
 
-bool ProductSearch::build(std::string* reason) {
+bool BestFirstSearch::build(std::string* reason) {
   double min_short = kNoSideYetM;
   const std::vector<double> dims = collect_shapes(&min_short);
   tol_ = line_merge_tol_m(params_, min_short);
@@ -157,7 +157,7 @@ bool ProductSearch::build(std::string* reason) {
   }
   // Box sides may lie up to the outline's tolerance beyond its extent (a lone box at a coarse
   // pitch measures short by its mixed edge pixels).
-  const double grow_m = std::max(0.0, params_.outline_tolerance_m);
+  const double grow_m = std::max(0.0, params_.search.outline_tolerance_m);
   bool capped = false;
   place_lines(seeds, dims, grow_m, &capped);
   if (capped) {
@@ -178,7 +178,7 @@ bool ProductSearch::build(std::string* reason) {
 
 // Shapes (every format, along x and, when not square, turned), the smallest box area; returns the
 // distinct box sides, ascending, and lowers *min_short_m to the shortest box side.
-std::vector<double> ProductSearch::collect_shapes(double* min_short_m) {
+std::vector<double> BestFirstSearch::collect_shapes(double* min_short_m) {
   std::vector<double> dims;
   for (std::size_t f = 0; f < formats_.size(); ++f) {
     const auto& fm = formats_[f];
@@ -202,7 +202,7 @@ std::vector<double> ProductSearch::collect_shapes(double* min_short_m) {
 // and stack towards +x (and the mirror image), so lines are closed under +dims from the one
 // and -dims from the other. Closing both ways from every edge would add differences of box
 // sides (e.g. 315 - 232 mm) and fill the layer with near-useless lines.
-EdgeSeeds ProductSearch::seed_edges(double min_edge_m) const {
+EdgeSeeds BestFirstSearch::seed_edges(double min_edge_m) const {
   EdgeSeeds seeds;
   seed_ring(edges_.outer, false, min_edge_m, &seeds);
   for (const auto& h : edges_.holes) seed_ring(h, true, min_edge_m, &seeds);
@@ -211,7 +211,7 @@ EdgeSeeds ProductSearch::seed_edges(double min_edge_m) const {
 
 // Seeds from the axis-aligned edges of one ring at least min_edge_m long that seed_ok_ accepts:
 // edges along x seed y lines, edges along y seed x lines, at their midpoints, weighted by length.
-void ProductSearch::seed_ring(const Ring2d& ring, bool hole, double min_edge_m, EdgeSeeds* seeds) const {
+void BestFirstSearch::seed_ring(const Ring2d& ring, bool hole, double min_edge_m, EdgeSeeds* seeds) const {
   const double axis_tol = kAxisTolDeg * M_PI / 180.0;
   const std::size_t n = ring.size();
   const double orient = (signed_area(ring) >= 0 ? 1.0 : -1.0) * (hole ? -1.0 : 1.0);  // +1: layer on the left
@@ -233,7 +233,7 @@ void ProductSearch::seed_ring(const Ring2d& ring, bool hole, double min_edge_m, 
 
 // Candidate lines xs_, ys_ over the outline's extent grown by grow_m; sets *capped when an axis
 // would need more than kMaxLinesPerAxis lines.
-void ProductSearch::place_lines(const EdgeSeeds& seeds, const std::vector<double>& dims, double grow_m,
+void BestFirstSearch::place_lines(const EdgeSeeds& seeds, const std::vector<double>& dims, double grow_m,
                                 bool* capped) {
   const Rect b = ring_bounds(poly_.outer);
   std::vector<double> neg_dims;
@@ -244,7 +244,7 @@ void ProductSearch::place_lines(const EdgeSeeds& seeds, const std::vector<double
 
 // Exact cell areas (cell_area_, total_area_), clipped once; returns their summed-area table
 // ((ny_ + 1) x (nx_ + 1)), which gives O(1) box areas.
-std::vector<double> ProductSearch::measure_cells() {
+std::vector<double> BestFirstSearch::measure_cells() {
   const auto ncells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
   cell_area_.assign(ncells, 0.0);
   std::vector<double> sat((static_cast<std::size_t>(nx_) + 1) * (static_cast<std::size_t>(ny_) + 1), 0.0);
@@ -270,16 +270,16 @@ std::vector<double> ProductSearch::measure_cells() {
 
 // Every placement per cell: each shape from the cell's lower-left corner to the lines its sides
 // reach, when enough of it lies on the layer, with its seam penalty; most promising first.
-void ProductSearch::build_placements(const std::vector<double>& sat, double grow_m) {
+void BestFirstSearch::build_placements(const std::vector<double>& sat, double grow_m) {
   const auto stride = static_cast<std::size_t>(nx_ + 1);
-  const bool grid = params_.area_method == AreaMethod::grid_sat;
+  const bool grid = params_.search.area_method == AreaMethod::kGridSat;
   std::unique_ptr<AreaOracle> oracle;
-  if (!grid) oracle = std::make_unique<AreaOracle>(poly_, params_.area_method, params_.area_raster_cell_m);
+  if (!grid) oracle = std::make_unique<AreaOracle>(poly_, params_.search.area_method, params_.search.area_raster_cell_m);
   std::unique_ptr<AreaOracle> mask;  // fast strip areas for the edge evidence
   if (seams_ != nullptr && !seams_->empty()) {
-    mask = std::make_unique<AreaOracle>(poly_, AreaMethod::raster, seams_->cell());
+    mask = std::make_unique<AreaOracle>(poly_, AreaMethod::kRaster, seams_->cell());
   }
-  GrownLayerTest grown(poly_, params_.area_raster_cell_m, grow_m);
+  GrownLayerTest grown(poly_, params_.search.area_raster_cell_m, grow_m);
   placements_.assign(cell_area_.size(), {});
   min_placement_area_ = total_area_;
   for (int j = 0; j < ny_; ++j) {
@@ -294,7 +294,7 @@ void ProductSearch::build_placements(const std::vector<double>& sat, double grow
         const Rect r{xs_[static_cast<std::size_t>(i)], ys_[static_cast<std::size_t>(j)],
                      xs_[static_cast<std::size_t>(i1)], ys_[static_cast<std::size_t>(j1)]};
         const double a = grid ? sat_area(sat, stride, i, j, i1, j1) : oracle->area(r);
-        if (!grown.on_layer(r, a, params_.a_min_fraction * s.dx * s.dy)) continue;
+        if (!grown.on_layer(r, a, params_.search.a_min_fraction * s.dx * s.dy)) continue;
         list.push_back({static_cast<int>(k), i1, j1, a, seam_penalty(r, mask.get())});
         min_placement_area_ = std::min(min_placement_area_, a);
       }
@@ -308,16 +308,16 @@ void ProductSearch::build_placements(const std::vector<double>& sat, double grow
 
 // Seam penalty of a box (0 without seams): seams across the interior, and edges with a neighbour
 // that lie on no seam.
-double ProductSearch::seam_penalty(const Rect& r, const AreaOracle* mask) const {
+double BestFirstSearch::seam_penalty(const Rect& r, const AreaOracle* mask) const {
   if (seams_ == nullptr || seams_->empty()) return 0;
-  const double margin = params_.seam_margin_m;
+  const double margin = params_.seams.margin_m;
   double pen =
-      params_.seam_weight * seams_->mass({r.x0 + margin, r.y0 + margin, r.x1 - margin, r.y1 - margin});
+      params_.seams.weight * seams_->mass({r.x0 + margin, r.y0 + margin, r.x1 - margin, r.y1 - margin});
   const auto layer_area = [mask](const Rect& q) { return mask->area(q); };
   const EdgeEvidence ev = edge_evidence(r, *seams_, layer_area, margin);
-  pen += params_.seam_weight * params_.missing_seam_weight * (ev.neighbour_len - ev.supported_len) *
+  pen += params_.seams.weight * params_.seams.missing_weight * (ev.neighbour_len - ev.supported_len) *
          seams_->cell();
   return pen;
 }
 
-}  // namespace palletd::layout_detail::product
+}  // namespace palletd::layout_detail::best_first

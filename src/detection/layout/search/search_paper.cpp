@@ -119,7 +119,7 @@ void PaperSearch::seed_corner(const Corner& c, const Eigen::Vector2d& pivot) {
       box.ax = sign_of(far.x() - v.x());
       box.ay = sign_of(far.y() - v.y());
       const double inter = area_of(fi, box.rect);
-      if (inter > params_.a_min_fraction * w * h) push({box, -1, fi, inter});
+      if (inter > params_.search.a_min_fraction * w * h) push({box, -1, fi, inter});
     }
   }
 }
@@ -127,7 +127,7 @@ void PaperSearch::seed_corner(const Corner& c, const Eigen::Vector2d& pivot) {
 bool PaperSearch::expand_all(const Deadline& deadline) {
   std::size_t pops = 0;
   while (!queue_.empty()) {
-    if (nodes_.size() >= params_.paper_max_hypotheses ||
+    if (nodes_.size() >= params_.search.paper_max_hypotheses ||
         ((++pops & kClockCheckMask) == 0 && deadline.passed())) {
       return true;
     }
@@ -183,10 +183,10 @@ void PaperSearch::add_stacked(const PaperBox& in, std::size_t f, int way, int fr
   nb.rect.x1 = nb.rect.x0 + lx;
   nb.rect.y1 = nb.rect.y0 + ly;
   const double box_area = lx * ly;
-  if (area_of(frame, nb.rect) <= params_.a_min_fraction * box_area) return;  // eq. (2)
+  if (area_of(frame, nb.rect) <= params_.search.a_min_fraction * box_area) return;  // eq. (2)
   double over = 0;  // eq. (3), Area(B_new ∩ ∪ B_j) bounded by the sum of pairwise overlaps
   for (const auto& b : hyp_) over += overlap(nb.rect, b.rect);
-  if (over >= params_.a_max_fraction * box_area) return;
+  if (over >= params_.search.a_max_fraction * box_area) return;
   if (!in_candidates(nb)) cand_.push_back(nb);
 }
 
@@ -223,7 +223,7 @@ PaperSolution search_paper(const PolygonWithHoles& polygon, const PolygonWithHol
   double min_short = kNoSideYetM;
   for (const auto& f : formats) min_short = std::min(min_short, f.short_m);
   const double min_edge = min_corner_edge_m(min_short);
-  const std::vector<Corner> corners = orthogonal_corners(edges, params.corner_angle_tol_deg, min_edge);
+  const std::vector<Corner> corners = orthogonal_corners(edges, params.search.corner_angle_tol_deg, min_edge);
   const Eigen::Vector2d pivot = vertex_mean(polygon);
 
   PaperSearch search(polygon, formats, params);

@@ -2,11 +2,11 @@
 // key (two nodes with the same key have the same futures), forced cells, layouts of nodes.
 #include <algorithm>
 
-#include "search/search_product_internal.hpp"
+#include "search/best_first_internal.hpp"
 
-namespace palletd::layout_detail::product {
+namespace palletd::layout_detail::best_first {
 
-std::uint64_t ProductSearch::frontier_key(const Node& n, const std::uint64_t* o) const {
+std::uint64_t BestFirstSearch::frontier_key(const Node& n, const std::uint64_t* o) const {
   std::uint64_t h = 1469598103934665603ULL ^ static_cast<std::uint64_t>(n.cursor);
   const auto first = static_cast<std::size_t>(n.cursor >> 6);
   for (std::size_t w = first; w < words_; ++w) {
@@ -38,18 +38,18 @@ bool for_each_range_word(int start, int len, Fn&& fn) {
 
 }  // namespace
 
-bool ProductSearch::range_free(const std::uint64_t* occ, int start, int len) const {
+bool BestFirstSearch::range_free(const std::uint64_t* occ, int start, int len) const {
   return for_each_range_word(start, len, [occ](int w, std::uint64_t mask) { return (occ[w] & mask) == 0; });
 }
 
-void ProductSearch::set_range(std::uint64_t* occ, int start, int len) {
+void BestFirstSearch::set_range(std::uint64_t* occ, int start, int len) {
   for_each_range_word(start, len, [occ](int w, std::uint64_t mask) {
     occ[w] |= mask;
     return true;
   });
 }
 
-bool ProductSearch::fits(const std::uint64_t* occ, int cell, const Placement& p) const {
+bool BestFirstSearch::fits(const std::uint64_t* occ, int cell, const Placement& p) const {
   const int i = cell % nx_, j = cell / nx_;
   for (int row = j; row < p.j1; ++row) {
     if (!range_free(occ, row * nx_ + i, p.i1 - i)) return false;
@@ -57,11 +57,11 @@ bool ProductSearch::fits(const std::uint64_t* occ, int cell, const Placement& p)
   return true;
 }
 
-void ProductSearch::advance(Node& n, std::uint64_t* occ) const {
+void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
   const int ncells = nx_ * ny_;
   // No placement covers less of the layer than this (with an outline tolerance, less than
   // a_min_fraction of a box can be enough).
-  const double stop_area = std::min(params_.a_min_fraction * min_box_area_, min_placement_area_);
+  const double stop_area = std::min(params_.search.a_min_fraction * min_box_area_, min_placement_area_);
   while (n.cursor < ncells) {
     const double remaining = total_area_ - n.covered - n.lost;
     if (remaining < stop_area) {  // no further box can be placed: the rest is lost
@@ -89,7 +89,7 @@ void ProductSearch::advance(Node& n, std::uint64_t* occ) const {
   n.complete = n.cursor >= ncells;
 }
 
-std::vector<FrameBox> ProductSearch::boxes_of(int node) const {
+std::vector<FrameBox> BestFirstSearch::boxes_of(int node) const {
   std::vector<FrameBox> out;
   for (int k = node; k >= 0; k = nodes_[static_cast<std::size_t>(k)].parent) {
     const Node& n = nodes_[static_cast<std::size_t>(k)];
@@ -105,4 +105,4 @@ std::vector<FrameBox> ProductSearch::boxes_of(int node) const {
   return out;
 }
 
-}  // namespace palletd::layout_detail::product
+}  // namespace palletd::layout_detail::best_first

@@ -19,9 +19,9 @@ namespace palletd {
 
 /// Order in which boxes are reported to the robot (pick index 0 first).
 enum class PickOrder {
-  far_corner_first,  ///< from the corner furthest from the robot base (or camera) inwards
-  row_major,         ///< by base-frame x, then y
-  nearest_first,     ///< nearest to the robot base (or camera) first
+  kFarCornerFirst,  ///< from the corner furthest from the robot base (or camera) inwards
+  kRowMajor,        ///< by base-frame x, then y
+  kNearestFirst,    ///< nearest to the robot base (or camera) first
 };
 
 struct DetectionParams {
@@ -29,7 +29,7 @@ struct DetectionParams {
   LayerParams layer;
   ContourParams contour;
   LayoutParams layout;
-  PickOrder pick_order = PickOrder::far_corner_first;
+  PickOrder pick_order = PickOrder::kFarCornerFirst;
 };
 
 /// One detected box, camera frame [m], conventions of shared/spec/detections.md.
@@ -50,7 +50,7 @@ struct DetectedBox {
 };
 
 struct Detection {
-  DetectionStatus status = DetectionStatus::bad_frame;
+  DetectionStatus status = DetectionStatus::kBadFrame;
   std::string message;
   std::map<std::string, double> timing_ms;  ///< "total" plus per stage
   Plane plane_camera;

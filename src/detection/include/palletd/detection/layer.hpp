@@ -88,7 +88,7 @@ struct LayerTrace {
 
 /// Result of the first half of the pipeline.
 struct LayerResult {
-  DetectionStatus status = DetectionStatus::no_plane;
+  DetectionStatus status = DetectionStatus::kNoPlane;
   std::string reason;                 ///< a sentence when status != ok
   Plane plane_camera;                 ///< top plane in the camera frame
   Eigen::Isometry3d T_camera_layer = Eigen::Isometry3d::Identity();  ///< layer -> camera

@@ -25,22 +25,26 @@
 
 namespace palletd {
 
-enum class SearchMode { product, paper };
+/// The layout search: best-first canonical tiling (exact, fast; the default) or the paper's
+/// Algorithms 1-3 as published (breadth-first over corners, capped).
+enum class SearchMode { kBestFirst, kPaper };
 
-/// How the product search evaluates Area(box ∩ layer) for its placement table. grid_sat is the
+/// How the best-first search evaluates Area(box ∩ layer) for its placement table. grid_sat is the
 /// default, chosen by measurement (tests/bench/layout): exact and the fastest; raster is
 /// approximate (it can break exact ties, so ambiguity is under-reported); clip is exact and slower.
 enum class AreaMethod {
-  grid_sat,  ///< exact: cells between candidate lines clipped once, summed-area table over cells
-  raster,    ///< layer rasterised in the layout frame (area_raster_cell_m), summed-area table
-  clip,      ///< exact clipping of the polygon with holes against each rectangle, every query
+  kGridSat,  ///< exact: cells between candidate lines clipped once, summed-area table over cells
+  kRaster,   ///< layer rasterised in the layout frame (area_raster_cell_m), summed-area table
+  kClip,     ///< exact clipping of the polygon with holes against each rectangle, every query
 };
 
-struct LayoutParams {
-  SearchMode search = SearchMode::product;
+/// The layout search (src/detection/layout/search/): what counts as a box on the layer, the
+/// budget, when two layouts tie.
+struct LayoutSearchParams {
+  SearchMode mode = SearchMode::kBestFirst;
   double a_min_fraction = 0.9;   ///< a box is on the layer when Area(B ∩ C) > a_min_fraction * Area(B)
   double a_max_fraction = 0.1;   ///< and overlaps the hypothesis by less than a_max_fraction * Area(B)
-  /// Product search: how far the true outline may lie outside the measured one [pixel pitches on
+  /// best-first search: how far the true outline may lie outside the measured one [pixel pitches on
   /// the layer]. An outline traced through pixels places an edge between a layer pixel and its
   /// neighbour off the layer, uncertain by up to half a pitch where no mixed depth says more; at a
   /// coarse pitch the short steps of a staggered edge (a brick layer's 100 mm offsets are 5 pixels
@@ -55,14 +59,14 @@ struct LayoutParams {
   /// The same in metres, used by find_layout; solve_layout sets it from
   /// outline_tolerance_pitches when it is 0 [m].
   double outline_tolerance_m = 0.0;
-  /// Product search budget per call: node expansions (best-first queue pops), shared among the
+  /// best-first search budget per call: node expansions (best-first queue pops), shared among the
   /// components and layout orientations in a fixed way. This is the primary budget and it is
   /// deterministic: the same frame gives the same layout whatever the machine load. Past it the
   /// best layout so far is returned with budget_exhausted. A 40-box layer needs a few thousand.
   std::size_t search_expansions = 20000;
   /// Wall-clock safety cap per call [ms], shared among the components; past it the best so far is
   /// returned with budget_exhausted (paper mode: the budget, with paper_max_hypotheses). In the
-  /// product search it only ends searches the expansion budget would let run too long.
+  /// best-first search it only ends searches the expansion budget would let run too long.
   double time_budget_ms = 200.0;
   /// Two materially different layouts whose scores differ by less than this share of the
   /// smallest box area, plus a strip outline_tolerance_m wide along the shortest box side, are
@@ -70,24 +74,46 @@ struct LayoutParams {
   double ambiguity_margin = 0.02;
   double corner_angle_tol_deg = 10.0;  ///< an outline corner is orthogonal within this [deg]
   double line_merge_tol_m = 0.0;       ///< candidate lines closer than this merge [m]; 0 = auto
-  /// Weights of the seam-penalised search find_layout runs when the outline search finds more
-  /// near-equal tilings than it lists (Area(B ∩ C) - seam_weight * (interior seam mass +
-  /// missing_seam_weight * unsupported shared edge * cell)); its layouts only join the
-  /// near-equal candidates the seams rank, never replace what the outline supports.
-  double seam_weight = 4.0;
-  double missing_seam_weight = 1.0;
-  double seam_margin_m = 0.012;        ///< box interior = box shrunk by this before seam lookup [m]
-  std::size_t max_nodes = 400000;      ///< product search node cap
+  std::size_t max_nodes = 400000;      ///< best-first search node cap
   std::size_t paper_max_hypotheses = 200000;  ///< paper mode cap on queued hypotheses
-  AreaMethod area_method = AreaMethod::grid_sat;
-  double area_raster_cell_m = 0.003;   ///< cell of AreaMethod::raster [m]
+  AreaMethod area_method = AreaMethod::kGridSat;
+  double area_raster_cell_m = 0.003;   ///< cell of AreaMethod::kRaster [m]
   /// Below this covered share of a component, its boxes match no recipe format (no_layout).
   double min_coverage = 0.8;
-  bool refine = true;                  ///< solve_layout: run refine_layout
-  double refine_size_tolerance_m = 0.010;  ///< refined sizes stay within nominal +/- this [m]
+};
+
+/// Seam evidence (src/detection/layout/evidence/): how the seam raster is built and weighed.
+struct SeamParams {
+  double cell_m = 0.0;            ///< raster cell [m]; 0 = the pixel pitch on the layer
+  /// Deeper than the plane by more than max(depth_step_m, depth_noise_k * sigma) starts to look
+  /// like a seam (fully at twice that); sigma = layer.diagnostics.plane_sigma_m when set, else
+  /// the MAD of the layer pixels' plane residuals [m].
+  double depth_step_m = 0.004;
+  double depth_noise_k = 3.0;
+  double intensity_weight = 0.8;  ///< weight of dark lines in the intensity image (0 = ignore intensity)
+  /// A dark line (darker than the pixels on both sides of it) starts to look like a seam when it
+  /// is intensity_noise_k times the intensity noise on the layer deep, fully at twice that.
+  double intensity_noise_k = 3.0;
+  double margin_m = 0.012;  ///< box interior = box shrunk by this before seam lookup [m]
+  /// Weights of the seam-penalised search find_layout runs when the outline search finds more
+  /// near-equal tilings than it lists (Area(B ∩ C) - weight * (interior seam mass +
+  /// missing_weight * unsupported shared edge * cell)); its layouts only join the near-equal
+  /// candidates the seams rank, never replace what the outline supports.
+  double weight = 4.0;
+  double missing_weight = 1.0;
+};
+
+/// The millimetre fit of the found boxes (src/detection/layout/refinement/).
+struct RefineParams {
+  bool enabled = true;               ///< solve_layout: run refine_layout
+  double size_tolerance_m = 0.010;   ///< refined sizes stay within nominal +/- this [m]
   /// Prior spread of a box's own turn against the rest of its layer, and of a separate
   /// component's against the layer's orientation [deg]; 0 turns all boxes of a layer together.
-  double refine_yaw_sigma_deg = 0.5;
+  double yaw_sigma_deg = 0.5;
+};
+
+/// What the outline leaves open (src/detection/layout/completion/, the uncovered flag).
+struct CompletionParams {
   /// Boxes the outline cuts where the depth ends (beyond the range, too dark; see
   /// LayerSurroundings): a box of the recipe is placed across such an edge when at least this
   /// share of it is on the layer, two of its sides (one per axis) lie on seen edges of the
@@ -97,6 +123,15 @@ struct LayoutParams {
   /// than this share of the smallest box, flags the layout ambiguous: the outline is not
   /// explained there (a wrong tiling, a box of another format). 0 = never.
   double uncovered_flag_fraction = 0.4;
+};
+
+/// The layout stage's parameters, one struct per phase. The configuration keeps them as one
+/// flat section (detection.layout in config/palletd.yaml).
+struct LayoutParams {
+  LayoutSearchParams search;
+  SeamParams seams;
+  RefineParams refine;
+  CompletionParams completion;
 };
 
 /// Seam evidence: a raster in the layer frame of how much each spot looks like a gap between
@@ -118,18 +153,6 @@ struct SeamEvidence {
   }
 };
 
-struct SeamParams {
-  double cell_m = 0.0;            ///< raster cell [m]; 0 = the pixel pitch on the layer
-  /// Deeper than the plane by more than max(depth_step_m, depth_noise_k * sigma) starts to look
-  /// like a seam (fully at twice that); sigma = layer.diagnostics.plane_sigma_m when set, else
-  /// the MAD of the layer pixels' plane residuals [m].
-  double depth_step_m = 0.004;
-  double depth_noise_k = 3.0;
-  double intensity_weight = 0.8;  ///< weight of dark lines in the intensity image (0 = ignore intensity)
-  /// A dark line (darker than the pixels on both sides of it) starts to look like a seam when it
-  /// is intensity_noise_k times the intensity noise on the layer deep, fully at twice that.
-  double intensity_noise_k = 3.0;
-};
 
 /// Builds the seam raster from the frame (depth, optional intensity), its organized cloud and
 /// the layer found by the first half. Empty when the layer status is not ok.
@@ -141,7 +164,7 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
 /// surface lower (the layer ends there). Built with the pixels' viewing rays, so pixels without
 /// depth land where they belong on the plane.
 struct LayerSurroundings {
-  enum Label : std::uint8_t { unseen = 0, level = 1, below = 2 };
+  enum Label : std::uint8_t { kUnseen = 0, kLevel = 1, kBelow = 2 };
   Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< layer-frame corner of cell (0, 0) [m]
   double cell_m = 0.01;                                ///< cell size [m]
   int width = 0;                                       ///< cells along layer x
@@ -182,15 +205,18 @@ struct RimPixel {
 std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                                       double min_drop_m = 0.05);
 
+/// One box of a layout: where it lies (layer frame) and how well the measurements support it.
+struct LayoutBox : Box2d {
+  double score = 0.0;          ///< 0..1
+  int component = 0;           ///< index of the component it lies on
+  bool partly_unseen = false;  ///< completed across an outline edge where the depth ends
+};
+
 /// Result of the layout search for all components of a layer.
 struct LayoutResult {
-  DetectionStatus status = DetectionStatus::no_layout;
+  DetectionStatus status = DetectionStatus::kNoLayout;
   std::string reason;                ///< a sentence when status != ok
-  std::vector<Box2d> boxes;          ///< layer frame
-  std::vector<double> box_scores;    ///< 0..1 per box
-  std::vector<int> box_component;    ///< index of the component each box lies on
-  /// Per box: completed across an outline edge where the depth ends (part of it unseen).
-  std::vector<bool> box_partly_unseen;
+  std::vector<LayoutBox> boxes;
   bool ambiguous = false;            ///< another layout scores (nearly) the same
   bool budget_exhausted = false;     ///< time budget or node cap reached: best so far returned
   double coverage = 0.0;             ///< covered share of the layer area
@@ -200,7 +226,7 @@ struct LayoutResult {
   /// Boxes completed across outline edges where the depth ends (LayoutParams::unseen_min_fraction).
   std::size_t completed_unseen = 0;
   std::size_t hypotheses_visited = 0;
-  std::size_t search_expansions = 0;  ///< product search: node expansions used (the budget's unit)
+  std::size_t search_expansions = 0;  ///< best-first search: node expansions used (the budget's unit)
   double search_ms = 0.0;
 };
 

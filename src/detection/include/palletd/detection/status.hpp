@@ -3,7 +3,7 @@
 
 namespace palletd {
 
-enum class DetectionStatus { ok, no_plane, no_layer, no_layout, bad_frame };
+enum class DetectionStatus { kOk, kNoPlane, kNoLayer, kNoLayout, kBadFrame };
 /// "ok", "no_plane", "no_layer", "no_layout", "bad_frame" (the words of shared/spec/detections.md).
 const char* to_string(DetectionStatus status);
 

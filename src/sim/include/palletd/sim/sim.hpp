@@ -18,11 +18,11 @@
 
 namespace palletd::sim {
 
-enum class PalletKind { None, Eur1200x800, Industrial1200x1000 };
-enum class PatternFamily { Block, Interlock, Brick, Pinwheel, Chimney, Mixed };
+enum class PalletKind { kNone, kEur1200x800, kIndustrial1200x1000 };
+enum class PatternFamily { kBlock, kInterlock, kBrick, kPinwheel, kChimney, kMixed };
 /// How a depalletizer emptied the top layer (used when fill < 1).
-enum class RemovalMode { Rows, Columns, Corner, Random, Holes, Clusters };
-enum class SensorKind { TimeOfFlight, StructuredLight };
+enum class RemovalMode { kRows, kColumns, kCorner, kRandom, kHoles, kClusters };
+enum class SensorKind { kTimeOfFlight, kStructuredLight };
 
 /// A box format: top face long x short side and height [m]; name like "315x232".
 struct BoxFormatSpec {
@@ -60,15 +60,15 @@ struct SimBox {
 
 /// What to build. Ranges are drawn uniformly per scene (or per box) from the seed.
 struct ScenarioOptions {
-  PalletKind pallet = PalletKind::Eur1200x800;
-  PatternFamily pattern = PatternFamily::Block;
+  PalletKind pallet = PalletKind::kEur1200x800;
+  PatternFamily pattern = PatternFamily::kBlock;
   /// Formats of the layer: the first is used; Mixed uses the first two. Empty: a default per pattern.
   std::vector<BoxFormatSpec> formats;
   /// Extra recipe formats that are not in the layer (the detector is told about them too).
   std::vector<BoxFormatSpec> extra_recipe;
   int lower_layers_min = 1, lower_layers_max = 2;
   double fill = 1.0;  ///< share of the top layer's boxes that remain, (0, 1]; at least one box
-  RemovalMode removal = RemovalMode::Rows;
+  RemovalMode removal = RemovalMode::kRows;
   // Real boxes.
   double size_tolerance_m = 0.002;  ///< per side, uniform +-
   double jitter_m = 0.004;          ///< placement, uniform +-
@@ -89,7 +89,7 @@ struct ScenarioOptions {
 
 /// A built scene: the boxes, the pallet, the camera.
 struct Scene {
-  PalletKind pallet = PalletKind::Eur1200x800;
+  PalletKind pallet = PalletKind::kEur1200x800;
   double pallet_long_m = 1.2, pallet_short_m = 0.8;  ///< area the layer must fit [m]
   double floor_reflectance = 0.25;
   std::vector<SimBox> boxes;            ///< pallet parts, lower layers and the top layer
@@ -104,7 +104,7 @@ struct Scene {
 struct SensorProfile {
   std::string name;
   std::string camera_id;  ///< written into the frame, "model-serial"
-  SensorKind kind = SensorKind::TimeOfFlight;
+  SensorKind kind = SensorKind::kTimeOfFlight;
   Intrinsics intrinsics;
   double depth_scale_m = 0.001;
   int intensity_bits = 16;

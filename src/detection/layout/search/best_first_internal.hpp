@@ -1,6 +1,6 @@
-// Private to the product layout search (search_*.cpp): its cell grid, nodes and the search
+// Private to the best-first layout search (search_*.cpp): its cell grid, nodes and the search
 // class. Pieces: search_candidates.cpp (candidate lines, cells, placements), search_state.cpp
-// (occupancy bits, canonical frontier keys, forced cells), search_product.cpp (best-first queue).
+// (occupancy bits, canonical frontier keys, forced cells), search_best_first.cpp (best-first queue).
 #pragma once
 
 #include <cstddef>
@@ -13,7 +13,7 @@
 
 #include "layout_internal.hpp"
 
-namespace palletd::layout_detail::product {
+namespace palletd::layout_detail::best_first {
 
 constexpr std::size_t kMaxLinesPerAxis = 240;
 constexpr std::size_t kMaxPoolBytes = std::size_t{96} << 20;
@@ -72,9 +72,9 @@ struct QueueItem {
   }
 };
 
-class ProductSearch {
+class BestFirstSearch {
  public:
-  ProductSearch(const PolygonWithHoles& poly, const PolygonWithHoles& edges, const std::vector<BoxFormat>& formats,
+  BestFirstSearch(const PolygonWithHoles& poly, const PolygonWithHoles& edges, const std::vector<BoxFormat>& formats,
                 const LayoutParams& params, const SeamTable* seams, const SearchBudget& budget, double min_outline,
                 const SeedEdgeFilter& seed_ok)
       : poly_(poly), edges_(edges), formats_(formats), params_(params), seams_(seams), budget_(budget),
@@ -99,7 +99,7 @@ class ProductSearch {
   void build_placements(const std::vector<double>& sat, double grow_m);
   [[nodiscard]] double seam_penalty(const Rect& r, const AreaOracle* mask) const;
 
-  // Best-first search (search_product.cpp).
+  // Best-first search (search_best_first.cpp).
   void start_search();
   void search_best_first(ComponentSolution* sol);
   bool take_complete(int k, ComponentSolution* sol);
@@ -159,4 +159,4 @@ class ProductSearch {
   bool exhausted_ = false;
 };
 
-}  // namespace palletd::layout_detail::product
+}  // namespace palletd::layout_detail::best_first

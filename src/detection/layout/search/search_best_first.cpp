@@ -7,11 +7,11 @@
 #include <queue>
 #include <unordered_map>
 
-#include "search/search_product_internal.hpp"
+#include "search/best_first_internal.hpp"
 
 namespace palletd::layout_detail {
 
-namespace product {
+namespace best_first {
 
 namespace {
 
@@ -30,7 +30,7 @@ std::int64_t quantized(double bound_m2) {
 
 }  // namespace
 
-ComponentSolution ProductSearch::run() {
+ComponentSolution BestFirstSearch::run() {
   ComponentSolution sol;
   if (!build(&sol.reason)) return sol;
   start_search();
@@ -41,9 +41,9 @@ ComponentSolution ProductSearch::run() {
 }
 
 // Node cap, margins, and the root node (nothing decided) on the queue.
-void ProductSearch::start_search() {
+void BestFirstSearch::start_search() {
   max_nodes_ =
-      std::max<std::size_t>(kMinNodes, std::min(params_.max_nodes, kMaxPoolBytes / (words_ * kBytesPerWord)));
+      std::max<std::size_t>(kMinNodes, std::min(params_.search.max_nodes, kMaxPoolBytes / (words_ * kBytesPerWord)));
   nodes_.reserve(std::min<std::size_t>(max_nodes_, kReservedNodes));
   pool_.reserve(std::min<std::size_t>(max_nodes_, kReservedNodes) * words_);
   tie_margin_m2_ = tie_margin_m2(params_, formats_);
@@ -56,7 +56,7 @@ void ProductSearch::start_search() {
 
 // Pops nodes best bound first until the queue runs dry, the bound falls below the floor, the
 // alternatives are full or the budget runs out (exhausted_).
-void ProductSearch::search_best_first(ComponentSolution* sol) {
+void BestFirstSearch::search_best_first(ComponentSolution* sol) {
   while (!queue_.empty()) {
     // The expansion count is the budget; the clock only caps a loaded or slow machine.
     if (pops_ >= budget_.expansions ||
@@ -83,7 +83,7 @@ void ProductSearch::search_best_first(ComponentSolution* sol) {
 
 // A complete layout off the queue: the best (the first one, unless the incumbent is better) or a
 // near-equal alternative. Returns true when the alternatives are full and the search ends.
-bool ProductSearch::take_complete(int k, ComponentSolution* sol) {
+bool BestFirstSearch::take_complete(int k, ComponentSolution* sol) {
   if (best_ < 0) {
     if (incumbent_ >= 0 && score_of(incumbent_) > score_of(k) + kScoreEpsM2) {
       best_ = incumbent_;  // the dive found better; this one may be an alternative
@@ -109,7 +109,7 @@ bool ProductSearch::take_complete(int k, ComponentSolution* sol) {
 
 // Children of the popped node at its cursor cell: the cell left uncovered, then every placement
 // that fits. Sets exhausted_ when the node cap is reached.
-void ProductSearch::expand(const QueueItem& item, int cell) {
+void BestFirstSearch::expand(const QueueItem& item, int cell) {
   const int k = static_cast<int>(item.node);
   const auto& list = placements_[static_cast<std::size_t>(cell)];
   for (int pi = -1; pi < static_cast<int>(list.size()); ++pi) {
@@ -124,7 +124,7 @@ void ProductSearch::expand(const QueueItem& item, int cell) {
 
 // Queues the newest node `idx`, or drops it when it cannot come within the margin of the best, it
 // covers less than the outline minimum, or better pasts with its frontier dominate it.
-void ProductSearch::admit_child(std::size_t idx) {
+void BestFirstSearch::admit_child(std::size_t idx) {
   const Node& child = nodes_[idx];
   const double child_bound = total_area_ - child.lost - child.penalty;
   if (child_bound < floor_score() || total_area_ - child.lost < min_outline_) {
@@ -147,7 +147,7 @@ void ProductSearch::admit_child(std::size_t idx) {
 // Dominance: of the nodes sharing a frontier, only the few best pasts can lead to the best layout
 // or to one of the kept near-equal alternatives. A child that is not dominated counts as one of
 // them.
-bool ProductSearch::dominated(const Node& child, std::size_t idx) {
+bool BestFirstSearch::dominated(const Node& child, std::size_t idx) {
   auto& d = frontier_[frontier_key(child, occ(idx))];
   const double past = child.covered - child.penalty;
   if (d.count > 0 && (past < d.best - tie_margin_m2_ || d.count > kMaxAlternatives)) return true;
@@ -156,13 +156,13 @@ bool ProductSearch::dominated(const Node& child, std::size_t idx) {
   return false;
 }
 
-void ProductSearch::drop_last_node() {
+void BestFirstSearch::drop_last_node() {
   nodes_.pop_back();
   pool_.resize(pool_.size() - words_);
 }
 
 // Child of node k placing placement pi of its cursor cell (-1 = leave the cell uncovered).
-std::size_t ProductSearch::make_child(int k, int pi) {
+std::size_t BestFirstSearch::make_child(int k, int pi) {
   const Node cur = nodes_[static_cast<std::size_t>(k)];
   const int c = cur.cursor;
   Node child = cur;
@@ -192,7 +192,7 @@ std::size_t ProductSearch::make_child(int k, int pi) {
 // Incumbent: a complete layout from greedy dives (largest fitting box first). It only tightens
 // the pruning (nothing below incumbent - margin can be within the margin of the best), so the
 // bound stays admissible; when the budget runs out, it is a complete answer.
-void ProductSearch::dive(int k) {
+void BestFirstSearch::dive(int k) {
   while (!nodes_[static_cast<std::size_t>(k)].complete) {
     if (nodes_.size() >= max_nodes_) return;
     const int c = nodes_[static_cast<std::size_t>(k)].cursor;
@@ -210,13 +210,13 @@ void ProductSearch::dive(int k) {
   if (incumbent_ < 0 || score_of(k) > score_of(incumbent_)) incumbent_ = k;
 }
 
-double ProductSearch::score_of(int k) const {
+double BestFirstSearch::score_of(int k) const {
   const Node& n = nodes_[static_cast<std::size_t>(k)];
   return n.covered - n.penalty;
 }
 
 // Bounds below this cannot come within the margin of the best (or the incumbent).
-double ProductSearch::floor_score() const {
+double BestFirstSearch::floor_score() const {
   double f = -1e300;
   if (best_ >= 0) f = score_of(best_);
   if (incumbent_ >= 0) f = std::max(f, score_of(incumbent_));
@@ -224,7 +224,7 @@ double ProductSearch::floor_score() const {
 }
 
 // The chosen layout (the best, else the highest-scoring node seen), the runner-up and the counts.
-void ProductSearch::fill_solution(ComponentSolution* sol) {
+void BestFirstSearch::fill_solution(ComponentSolution* sol) {
   // The queue ran dry below the incumbent: the incumbent is the best (within the margin).
   if (best_ < 0 && !exhausted_ && incumbent_ >= 0) {
     best_ = incumbent_;
@@ -247,13 +247,13 @@ void ProductSearch::fill_solution(ComponentSolution* sol) {
   }
 }
 
-}  // namespace product
+}  // namespace best_first
 
-ComponentSolution search_product(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
+ComponentSolution search_best_first(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
                                  const std::vector<BoxFormat>& formats, const LayoutParams& params,
                                  const SeamTable* seams, const SearchBudget& budget, double min_outline_score,
                                  const SeedEdgeFilter& seed_ok) {
-  product::ProductSearch search(frame_polygon, frame_edges, formats, params, seams, budget, min_outline_score,
+  best_first::BestFirstSearch search(frame_polygon, frame_edges, formats, params, seams, budget, min_outline_score,
                                 seed_ok);
   return search.run();
 }
