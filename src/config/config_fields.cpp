@@ -168,25 +168,27 @@ const Table<DetectionParams>& detection_table() {
   return t;
 }
 
-const Table<ModbusConfig>& modbus_table() {
+const Table<modbus::ServerOptions>& modbus_table() {
+  using M = modbus::ServerOptions;
   const auto address = [](const std::string& a) { return check_address(a, false); };
   const auto block = [](const std::string& a) { return check_address(a, true); };
-  static const Table<ModbusConfig> t = {
+  static const Table<M> t = {
       {"bind_address",
-       [address](const Context& ctx, const YAML::Node& node, const std::string& path, ModbusConfig& out) {
+       [address](const Context& ctx, const YAML::Node& node, const std::string& path, M& out) {
          std::string v = read_string(ctx, node, path);
          if (auto e = address(v); !e.empty()) fail(ctx, node, path, e);
          out.bind_address = std::move(v);
        },
-       compare_member(&ModbusConfig::bind_address), list_leaf<ModbusConfig>},
-      integer("port", &ModbusConfig::port, 1, 65535),
-      integer("unit_id", &ModbusConfig::unit_id, 0, 255),
-      flag("low_word_first", &ModbusConfig::low_word_first),
-      texts("allow", &ModbusConfig::allow, block),
-      texts("read_only", &ModbusConfig::read_only, block),
-      integer("max_connections", &ModbusConfig::max_connections, 1, 1024),
-      number("idle_timeout_s", &ModbusConfig::idle_timeout_s, Range::closed(0.0, 86400.0)),
-      number("plc_heartbeat_timeout_s", &ModbusConfig::plc_heartbeat_timeout_s, Range::closed(0.0, 3600.0)),
+       compare_member(&M::bind_address), list_leaf<M>},
+      integer("port", &M::port, 1, 65535),
+      integer("unit_id", &M::unit_id, 0, 255),
+      within(&M::handshake, word_order_flag("low_word_first", &modbus::HandshakeOptions::word_order)),
+      texts("allow", &M::allow, block),
+      texts("read_only", &M::read_only, block),
+      integer("max_connections", &M::max_connections, 1, 1024),
+      number("idle_timeout_s", &M::idle_timeout_s, Range::closed(0.0, 86400.0)),
+      within(&M::handshake, number("plc_heartbeat_timeout_s", &modbus::HandshakeOptions::plc_heartbeat_timeout_s,
+                                   Range::closed(0.0, 3600.0))),
   };
   return t;
 }
@@ -221,17 +223,19 @@ const Table<WebConfig>& web_table() {
   const auto address = [](const std::string& a) { return check_address(a, false); };
   static const Table<WebConfig> t = {
       flag("enabled", &WebConfig::enabled),
-      {"bind_address",
-       [address](const Context& ctx, const YAML::Node& node, const std::string& path, WebConfig& out) {
-         std::string v = read_string(ctx, node, path);
-         if (auto e = address(v); !e.empty()) fail(ctx, node, path, e);
-         out.bind_address = std::move(v);
-       },
-       compare_member(&WebConfig::bind_address), list_leaf<WebConfig>},
-      integer("port", &WebConfig::port, 1, 65535),
-      flag("allow_snapshot_post", &WebConfig::allow_snapshot_post),
-      integer("refresh_ms", &WebConfig::refresh_ms, 100, 60000),
-      texts("allowed_hosts", &WebConfig::allowed_hosts),
+      within(&WebConfig::server,
+             Field<WebOptions>{"bind_address",
+                               [address](const Context& ctx, const YAML::Node& node, const std::string& path,
+                                         WebOptions& out) {
+                                 std::string v = read_string(ctx, node, path);
+                                 if (auto e = address(v); !e.empty()) fail(ctx, node, path, e);
+                                 out.bind_address = std::move(v);
+                               },
+                               compare_member(&WebOptions::bind_address), list_leaf<WebOptions>}),
+      within(&WebConfig::server, integer("port", &WebOptions::port, 1, 65535)),
+      within(&WebConfig::server, flag("allow_snapshot_post", &WebOptions::allow_snapshot_post)),
+      within(&WebConfig::server, integer("refresh_ms", &WebOptions::refresh_ms, 100, 60000)),
+      within(&WebConfig::server, texts("allowed_hosts", &WebOptions::allowed_hosts)),
   };
   return t;
 }

@@ -111,6 +111,16 @@ Field<S> integer(const char* key, T S::*member, long long lo, long long hi) {
           compare_member(member), list_leaf<S>};
 }
 
+/// A yes/no key that selects the 32-bit word order: yes = low word first.
+template <typename S>
+Field<S> word_order_flag(const char* key, modbus::WordOrder S::*member) {
+  return {key,
+          [member](const Context& ctx, const YAML::Node& node, const std::string& path, S& out) {
+            out.*member = read_bool(ctx, node, path) ? modbus::WordOrder::kLowWordFirst : modbus::WordOrder::kHighWordFirst;
+          },
+          compare_member(member), list_leaf<S>};
+}
+
 template <typename S>
 Field<S> flag(const char* key, bool S::*member) {
   return {key,
@@ -237,7 +247,7 @@ Field<S> within(Sub S::*member, Field<Sub> field) {
 // The tables (config_fields.cpp).
 const Table<CameraConfig>& camera_table();
 const Table<DetectionParams>& detection_table();
-const Table<ModbusConfig>& modbus_table();
+const Table<modbus::ServerOptions>& modbus_table();
 const Table<PipelineConfig>& pipeline_table();
 const Table<LoggingConfig>& logging_table();
 const Table<RecordingConfig>& recording_table();

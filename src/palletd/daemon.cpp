@@ -24,14 +24,27 @@ void apply_overrides(const DaemonOptions& options, Config& config) {
     config.camera.replay.loop = true;
   }
   if (options.bind_address) config.modbus.bind_address = *options.bind_address;
-  if (options.port) config.modbus.port = *options.port;
+  if (options.port) config.modbus.port = static_cast<std::uint16_t>(*options.port);  // 1-65535 (main.cpp)
   if (options.web_port) {
     config.web.enabled = true;
-    config.web.port = *options.web_port;
+    config.web.server.port = *options.web_port;
   }
 }
 
 namespace {
+
+/// The recipes of a configuration with their formats resolved, as the status page shows them.
+std::vector<RecipeInfo> recipe_infos(const Config& config) {
+  std::vector<RecipeInfo> out;
+  for (const auto& r : config.recipes) {
+    RecipeInfo info{r.number, r.name, {}};
+    for (int index : r.formats)
+      if (index >= 0 && static_cast<std::size_t>(index) < config.formats.size())
+        info.formats.push_back(config.formats[static_cast<std::size_t>(index)]);
+    out.push_back(std::move(info));
+  }
+  return out;
+}
 
 void notify(const std::string& message) { (void)sd_notify(0, message.c_str()); }
 
@@ -63,12 +76,7 @@ int run_daemon(const DaemonOptions& options, Config config) {
   std::vector<RecipeInfo> recipes = recipe_infos(config);
   std::unique_ptr<WebServer> web;
   if (config.web.enabled) {
-    WebOptions wo;
-    wo.bind_address = config.web.bind_address;
-    wo.port = config.web.port;
-    wo.allow_snapshot_post = config.web.allow_snapshot_post;
-    wo.refresh_ms = config.web.refresh_ms;
-    wo.allowed_hosts = config.web.allowed_hosts;
+    WebOptions wo = config.web.server;
     wo.log = [](const std::string& line) { spdlog::info("web: {}", line); };
     StatusSource source;
     source.latest = [&service] { return service.latest(); };
@@ -79,7 +87,7 @@ int run_daemon(const DaemonOptions& options, Config config) {
       return recipes;
     };
     source.request_snapshot = [&service] { return service.request_snapshot(); };
-    source.word_order = config.modbus.low_word_first ? modbus::WordOrder::kLowWordFirst : modbus::WordOrder::kHighWordFirst;
+    source.word_order = config.modbus.handshake.word_order;
     web = std::make_unique<WebServer>(wo, source);
     if (Status s = web->start(); !s) {
       spdlog::critical("palletd cannot start: {}", s.error());
@@ -87,7 +95,7 @@ int run_daemon(const DaemonOptions& options, Config config) {
       service.stop();
       return 1;
     }
-    spdlog::info("status page on http://{}:{}/", config.web.bind_address, web->port());
+    spdlog::info("status page on http://{}:{}/", wo.bind_address, web->port());
   }
 
   std::uint64_t watchdog_us = 0;

@@ -23,17 +23,9 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-modbus::ServerOptions server_options(const ModbusConfig& m, const Config& config) {
-  modbus::ServerOptions o;
-  o.bind_address = m.bind_address;
-  o.port = static_cast<std::uint16_t>(m.port);
-  o.unit_id = static_cast<std::uint8_t>(m.unit_id);
-  o.allow = m.allow;
-  o.read_only = m.read_only;
-  o.max_connections = m.max_connections;
-  o.idle_timeout_s = m.idle_timeout_s;
-  o.handshake.word_order = m.low_word_first ? modbus::WordOrder::kLowWordFirst : modbus::WordOrder::kHighWordFirst;
-  o.handshake.plc_heartbeat_timeout_s = m.plc_heartbeat_timeout_s;
+/// The configured server with what the service adds: the first recipe and a log sink.
+modbus::ServerOptions server_options(const Config& config) {
+  modbus::ServerOptions o = config.modbus;
   o.handshake.initial_recipe = static_cast<std::uint16_t>(config.pipeline.default_recipe);
   o.log = [](const std::string& line) { spdlog::info("modbus: {}", line); };
   return o;
@@ -55,7 +47,7 @@ class Service::Impl {
  public:
   explicit Impl(Config config)
       : config_(std::make_shared<const Config>(std::move(config))),
-        server_(server_options(config_->modbus, *config_)) {}
+        server_(server_options(*config_)) {}
 
   ~Impl() { stop(); }
 

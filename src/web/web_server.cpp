@@ -29,18 +29,6 @@ namespace palletd {
 
 extern const char* const kStatusPageHtml;  // status_page.cpp (generated from status_page.html)
 
-std::vector<RecipeInfo> recipe_infos(const Config& config) {
-  std::vector<RecipeInfo> out;
-  for (const auto& r : config.recipes) {
-    RecipeInfo info{r.number, r.name, {}};
-    for (int index : r.formats)
-      if (index >= 0 && static_cast<std::size_t>(index) < config.formats.size())
-        info.formats.push_back(config.formats[static_cast<std::size_t>(index)]);
-    out.push_back(std::move(info));
-  }
-  return out;
-}
-
 namespace {
 
 namespace fs = std::filesystem;

@@ -158,7 +158,7 @@ recording: {enabled: true, directory: rec, max_bytes: 1048576, every_trigger: tr
   CHECK(c.detection.layout.search.time_budget_ms == 120.0);
   CHECK(c.modbus.bind_address == "::1");
   CHECK(c.modbus.unit_id == 0);
-  CHECK(c.modbus.low_word_first);
+  CHECK(c.modbus.handshake.word_order == modbus::WordOrder::kLowWordFirst);
   CHECK(c.modbus.read_only == std::vector<std::string>{"192.168.1.7", "fe80::/10"});
   CHECK(c.pipeline.detection_timeout_ms == 500.0);
   CHECK(c.logging.level == "debug");

@@ -1,4 +1,4 @@
-// palletd io: the configuration as plain structs with defaults, parsed at the edge from one
+// palletd config: the configuration as plain structs with defaults, parsed at the edge from one
 // YAML file (config/palletd.yaml documents every key with its default and unit).
 #pragma once
 
@@ -10,10 +10,12 @@
 
 #include <Eigen/Geometry>
 
-#include "palletd/detection/detection.hpp"
-#include "palletd/drivers/camera_config.hpp"
 #include "palletd/core/frame.hpp"
 #include "palletd/core/geometry.hpp"
+#include "palletd/detection/detection.hpp"
+#include "palletd/drivers/camera_config.hpp"
+#include "palletd/modbus/server.hpp"
+#include "palletd/web/web.hpp"
 
 namespace palletd {
 
@@ -22,18 +24,6 @@ struct Recipe {
   int number = 0;
   std::string name;
   std::vector<int> formats;  ///< indices into Config::formats
-};
-
-struct ModbusConfig {
-  std::string bind_address = "127.0.0.1";  ///< never all interfaces by surprise
-  int port = 502;
-  int unit_id = 1;                  ///< 0 = answer any unit id
-  bool low_word_first = false;      ///< 32-bit values: high word first by default
-  std::vector<std::string> allow;   ///< addresses / CIDR allowed to connect; empty = any
-  std::vector<std::string> read_only;  ///< addresses / CIDR whose writes are refused
-  int max_connections = 16;
-  double idle_timeout_s = 60.0;     ///< close connections idle this long [s]; 0 = never
-  double plc_heartbeat_timeout_s = 0.0;  ///< watch the PLC heartbeat register; 0 = off
 };
 
 struct PipelineConfig {
@@ -53,14 +43,11 @@ struct RecordingConfig {
   bool overlays = true;
 };
 
-/// The read-only status page served by the daemon (docs/commissioning.md).
+/// The read-only status page served by the daemon (docs/commissioning.md): whether it runs, and
+/// the server's own options.
 struct WebConfig {
   bool enabled = false;
-  std::string bind_address = "127.0.0.1";  ///< loopback by default
-  int port = 8080;
-  bool allow_snapshot_post = false;  ///< POST /api/snapshot stores the next frame (as SaveSnapshot)
-  int refresh_ms = 1000;             ///< page refresh period [ms]
-  std::vector<std::string> allowed_hosts;  ///< extra Host names (numeric addresses, localhost always)
+  WebOptions server;
 };
 
 struct Config {
@@ -70,7 +57,7 @@ struct Config {
   std::vector<BoxFormat> formats;
   std::vector<Recipe> recipes;
   DetectionParams detection;
-  ModbusConfig modbus;
+  modbus::ServerOptions modbus;  ///< the server as configured; the service adds its log sink and initial recipe
   PipelineConfig pipeline;
   LoggingConfig logging;
   RecordingConfig recording;

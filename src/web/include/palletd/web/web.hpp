@@ -24,7 +24,6 @@
 #include <string>
 #include <vector>
 
-#include "palletd/config/config.hpp"
 #include "palletd/core/expected.hpp"
 #include "palletd/core/geometry.hpp"
 #include "palletd/modbus/register_map.hpp"
@@ -55,8 +54,6 @@ struct RecipeInfo {
   std::vector<BoxFormat> formats;
 };
 
-/// The recipes of a configuration with their formats resolved.
-std::vector<RecipeInfo> recipe_infos(const Config& config);
 
 /// Where the server gets its data. Every callback may be called from any server thread at any
 /// time and must be thread-safe; latest, health and registers are required.
