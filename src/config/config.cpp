@@ -10,120 +10,6 @@
 
 namespace palletd {
 
-namespace {
-
-std::string error_text(const std::string& file, int line, int column, const std::string& key_path,
-                       const std::string& message) {
-  std::string text = file;
-  if (line > 0) text += ":" + std::to_string(line) + ":" + std::to_string(column);
-  text += ": ";
-  if (!key_path.empty()) text += key_path + ": ";
-  return text + message;
-}
-
-}  // namespace
-
-ConfigError::ConfigError(std::string file, int line, int column, std::string key_path, const std::string& message)
-    : std::runtime_error(error_text(file, line, column, key_path, message)),
-      file_(std::move(file)),
-      line_(line),
-      column_(column),
-      key_path_(std::move(key_path)) {}
-
-namespace config_detail {
-
-void fail_at(const Context& ctx, const YAML::Mark& mark, const std::string& path, const std::string& message) {
-  if (mark.is_null()) throw ConfigError(ctx.file, 0, 0, path, message);
-  throw ConfigError(ctx.file, mark.line + 1, mark.column + 1, path, message);
-}
-
-void fail(const Context& ctx, const YAML::Node& at, const std::string& path, const std::string& message) {
-  fail_at(ctx, at.Mark(), path, message);
-}
-
-std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
-
-namespace {
-
-bool quoted(const YAML::Node& node) { return node.Tag() == "!"; }
-
-}  // namespace
-
-std::string describe(const YAML::Node& node) {
-  switch (node.Type()) {
-    case YAML::NodeType::Null:
-    case YAML::NodeType::Undefined:
-      return "nothing";
-    case YAML::NodeType::Sequence:
-      return "a list";
-    case YAML::NodeType::Map:
-      return "a mapping";
-    case YAML::NodeType::Scalar:
-      return (quoted(node) ? "the string '" : "'") + node.Scalar() + "'";
-  }
-  return "something else";
-}
-
-double read_double(const Context& ctx, const YAML::Node& node, const std::string& path) {
-  double v = 0.0;
-  if (!node.IsScalar() || quoted(node) || !YAML::convert<double>::decode(node, v))
-    fail(ctx, node, path, "expected a number, got " + describe(node));
-  if (!std::isfinite(v)) fail(ctx, node, path, "must be a finite number");
-  return v;
-}
-
-long long read_integer(const Context& ctx, const YAML::Node& node, const std::string& path) {
-  long long v = 0;
-  if (!node.IsScalar() || quoted(node) || !YAML::convert<long long>::decode(node, v))
-    fail(ctx, node, path, "expected an integer, got " + describe(node));
-  return v;
-}
-
-bool read_bool(const Context& ctx, const YAML::Node& node, const std::string& path) {
-  bool v = false;
-  if (!node.IsScalar() || quoted(node) || !YAML::convert<bool>::decode(node, v))
-    fail(ctx, node, path, "expected true or false, got " + describe(node));
-  return v;
-}
-
-std::string read_string(const Context& ctx, const YAML::Node& node, const std::string& path) {
-  if (!node.IsScalar()) fail(ctx, node, path, "expected a string, got " + describe(node));
-  return node.Scalar();
-}
-
-std::vector<std::string> read_strings(const Context& ctx, const YAML::Node& node, const std::string& path) {
-  std::vector<std::string> out;
-  if (node.IsNull()) return out;
-  if (!node.IsSequence()) fail(ctx, node, path, "expected a list of strings, got " + describe(node));
-  for (std::size_t i = 0; i < node.size(); ++i)
-    out.push_back(read_string(ctx, node[i], path + "[" + std::to_string(i) + "]"));
-  return out;
-}
-
-std::string resolve_path(const Context& ctx, const std::string& path) {
-  if (path.empty() || ctx.base_directory.empty()) return path;
-  const std::filesystem::path p(path);
-  if (p.is_absolute()) return path;
-  return (std::filesystem::path(ctx.base_directory) / p).lexically_normal().string();
-}
-
-void check_keys(const Context& ctx, const YAML::Node& map, const std::string& path,
-                const std::vector<std::string>& allowed) {
-  std::set<std::string> seen;
-  for (auto it = map.begin(); it != map.end(); ++it) {
-    const YAML::Node key = it->first;
-    if (!key.IsScalar()) fail(ctx, key, path, "keys must be plain words, got " + describe(key));
-    const std::string& name = key.Scalar();
-    if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
-      std::string known;
-      for (const auto& a : allowed) known += (known.empty() ? "" : ", ") + a;
-      fail(ctx, key, join(path, name), "unknown key (known here: " + known + ")");
-    }
-    if (!seen.insert(name).second) fail(ctx, key, join(path, name), "duplicate key");
-  }
-}
-
-}  // namespace config_detail
 
 using namespace config_detail;
 
@@ -153,7 +39,7 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (const YAML::Node n = root["formats"]) config.formats = read_formats(ctx, n, "formats");
   if (const YAML::Node n = root["recipes"]) config.recipes = read_recipes(ctx, n, "recipes", config.formats);
   if (const YAML::Node n = root["detection"]) read_section(ctx, n, "detection", detection_table(), config.detection);
-  if (const YAML::Node n = root["modbus"]) read_section(ctx, n, "modbus", modbus_table(), config.modbus);
+  if (const YAML::Node n = root["modbus"]) read_section(ctx, n, "modbus", modbus::server_table(), config.modbus);
   if (const YAML::Node n = root["pipeline"]) read_section(ctx, n, "pipeline", pipeline_table(), config.pipeline);
   if (const YAML::Node n = root["logging"]) read_section(ctx, n, "logging", logging_table(), config.logging);
   if (const YAML::Node n = root["recording"]) read_section(ctx, n, "recording", recording_table(), config.recording);
@@ -220,7 +106,7 @@ std::vector<std::string> config_differences(const Config& a, const Config& b) {
   if (!std::equal(a.recipes.begin(), a.recipes.end(), b.recipes.begin(), b.recipes.end(), same_recipe))
     diffs.emplace_back("recipes");
   compare_section(a.detection, b.detection, "detection", detection_table(), diffs);
-  compare_section(a.modbus, b.modbus, "modbus", modbus_table(), diffs);
+  compare_section(a.modbus, b.modbus, "modbus", modbus::server_table(), diffs);
   compare_section(a.pipeline, b.pipeline, "pipeline", pipeline_table(), diffs);
   compare_section(a.logging, b.logging, "logging", logging_table(), diffs);
   compare_section(a.recording, b.recording, "recording", recording_table(), diffs);
@@ -235,7 +121,7 @@ std::vector<std::string> config_key_paths() {
   keys.emplace_back("formats");
   keys.emplace_back("recipes");
   list_section("detection", detection_table(), keys);
-  list_section("modbus", modbus_table(), keys);
+  list_section("modbus", modbus::server_table(), keys);
   list_section("pipeline", pipeline_table(), keys);
   list_section("logging", logging_table(), keys);
   list_section("recording", recording_table(), keys);

@@ -1,55 +1,11 @@
 // Configuration sections with a shape of their own: intrinsics override, camera_to_base, box
 // formats and recipes, network addresses.
-#include <arpa/inet.h>
-
 #include <cmath>
 #include <map>
 
 #include "config_yaml.hpp"
 
 namespace palletd::config_detail {
-
-namespace {
-
-// (Never assign one YAML::Node to another: yaml-cpp's assignment rewrites the referenced node.)
-YAML::Node require(const Context& ctx, const YAML::Node& map, const std::string& path, const char* key) {
-  YAML::Node value = map[key];
-  if (!value) fail(ctx, map, path, std::string("missing key '") + key + "'");
-  return value;
-}
-
-std::string index_path(const std::string& path, std::size_t i) { return path + "[" + std::to_string(i) + "]"; }
-
-}  // namespace
-
-std::optional<Intrinsics> read_intrinsics(const Context& ctx, const YAML::Node& node, const std::string& path) {
-  if (node.IsNull()) return std::nullopt;
-  if (!node.IsMap()) fail(ctx, node, path, "expected a mapping (width, height, fx, fy, cx, cy, distortion) or null");
-  check_keys(ctx, node, path, {"width", "height", "fx", "fy", "cx", "cy", "distortion"});
-  Intrinsics k;
-  for (auto [key, out] : {std::pair<const char*, int*>{"width", &k.width}, {"height", &k.height}}) {
-    const YAML::Node v = require(ctx, node, path, key);
-    const long long n = read_integer(ctx, v, join(path, key));
-    if (n < 1 || n > 10000) fail(ctx, v, join(path, key), "must be between 1 and 10000");
-    *out = static_cast<int>(n);
-  }
-  for (auto [key, out] : {std::pair<const char*, double*>{"fx", &k.fx}, {"fy", &k.fy}}) {
-    const YAML::Node v = require(ctx, node, path, key);
-    *out = read_double(ctx, v, join(path, key));
-    if (*out <= 0.0) fail(ctx, v, join(path, key), "focal length must be > 0");
-  }
-  for (auto [key, out] : {std::pair<const char*, double*>{"cx", &k.cx}, {"cy", &k.cy}})
-    *out = read_double(ctx, require(ctx, node, path, key), join(path, key));
-  if (const YAML::Node d = node["distortion"]; d && !d.IsNull()) {
-    const std::string dpath = join(path, "distortion");
-    if (!d.IsSequence() || d.size() != 5)
-      fail(ctx, d, dpath, "expected a list of 5 numbers (k1 k2 p1 p2 k3), got " + describe(d));
-    std::array<double, 5> coeffs{};
-    for (std::size_t i = 0; i < 5; ++i) coeffs[i] = read_double(ctx, d[i], index_path(dpath, i));
-    k.distortion = coeffs;
-  }
-  return k;
-}
 
 std::optional<Eigen::Isometry3d> read_camera_to_base(const Context& ctx, const YAML::Node& node,
                                                      const std::string& path) {
@@ -138,27 +94,5 @@ std::vector<Recipe> read_recipes(const Context& ctx, const YAML::Node& node, con
   return recipes;
 }
 
-std::string check_address(const std::string& text, bool allow_prefix) {
-  std::string address = text;
-  int prefix = -1;
-  if (const auto slash = text.find('/'); slash != std::string::npos) {
-    if (!allow_prefix) return "'" + text + "' must be a plain IP address (no /prefix)";
-    address = text.substr(0, slash);
-    const std::string digits = text.substr(slash + 1);
-    if (digits.empty() || digits.size() > 3 || digits.find_first_not_of("0123456789") != std::string::npos)
-      return "'" + text + "' has a bad prefix length";
-    prefix = std::stoi(digits);
-  }
-  unsigned char buffer[16];
-  if (inet_pton(AF_INET, address.c_str(), buffer) == 1) {
-    if (prefix > 32) return "'" + text + "': an IPv4 prefix length is at most 32";
-    return {};
-  }
-  if (inet_pton(AF_INET6, address.c_str(), buffer) == 1) {
-    if (prefix > 128) return "'" + text + "': an IPv6 prefix length is at most 128";
-    return {};
-  }
-  return "'" + text + "' is not an IP address" + std::string(allow_prefix ? " or CIDR block" : "");
-}
 
 }  // namespace palletd::config_detail

@@ -19,11 +19,16 @@ namespace {
 
 const char* detection_failure_text(std::uint16_t detail) {
   switch (static_cast<modbus::DetectionFailure>(detail)) {
-    case modbus::DetectionFailure::kNoPlane: return "no plane found in the frame";
-    case modbus::DetectionFailure::kNoLayer: return "no top layer found";
-    case modbus::DetectionFailure::kNoLayout: return "no box layout fits the layer";
-    case modbus::DetectionFailure::kBadFrame: return "the frame is unusable";
-    case modbus::DetectionFailure::kUnknown: break;
+    case modbus::DetectionFailure::kNoPlane:
+      return "no plane found in the frame";
+    case modbus::DetectionFailure::kNoLayer:
+      return "no top layer found";
+    case modbus::DetectionFailure::kNoLayout:
+      return "no box layout fits the layer";
+    case modbus::DetectionFailure::kBadFrame:
+      return "the frame is unusable";
+    case modbus::DetectionFailure::kUnknown:
+      break;
   }
   return "reason unknown";
 }
@@ -32,38 +37,52 @@ const char* detection_failure_text(std::uint16_t detail) {
 
 const char* error_name(ErrorCode code) {
   switch (code) {
-    case ErrorCode::kNone: return "no error";
-    case ErrorCode::kFrameTimeout: return "frame timeout";
-    case ErrorCode::kDetectionTimeout: return "detection timeout";
-    case ErrorCode::kDetectionFailed: return "detection failed";
-    case ErrorCode::kCameraDisconnected: return "camera disconnected";
-    case ErrorCode::kUnknownRecipe: return "unknown recipe";
-    case ErrorCode::kPlcHeartbeatLost: return "PLC heartbeat lost";
-    case ErrorCode::kInternal: return "internal error";
+    case ErrorCode::kNone:
+      return "no error";
+    case ErrorCode::kFrameTimeout:
+      return "frame timeout";
+    case ErrorCode::kDetectionTimeout:
+      return "detection timeout";
+    case ErrorCode::kDetectionFailed:
+      return "detection failed";
+    case ErrorCode::kCameraDisconnected:
+      return "camera disconnected";
+    case ErrorCode::kUnknownRecipe:
+      return "unknown recipe";
+    case ErrorCode::kPlcHeartbeatLost:
+      return "PLC heartbeat lost";
+    case ErrorCode::kInternal:
+      return "internal error";
   }
   return "unknown error code";
 }
 
 std::string error_sentence(ErrorCode code, std::uint16_t detail) {
   switch (code) {
-    case ErrorCode::kNone: return "No error.";
-    case ErrorCode::kFrameTimeout: return "No frame was captured after the trigger within the frame timeout.";
-    case ErrorCode::kDetectionTimeout: return "The detection took longer than the detection timeout.";
+    case ErrorCode::kNone:
+      return "No error.";
+    case ErrorCode::kFrameTimeout:
+      return "No frame was captured after the trigger within the frame timeout.";
+    case ErrorCode::kDetectionTimeout:
+      return "The detection took longer than the detection timeout.";
     case ErrorCode::kDetectionFailed:
       return std::string("The detection failed: ") + detection_failure_text(detail) + ".";
     case ErrorCode::kCameraDisconnected:
       return "The camera is disconnected (" + std::to_string(detail) + " reconnect attempts so far).";
-    case ErrorCode::kUnknownRecipe: return "The PLC asked for recipe " + std::to_string(detail) + ", which is not configured.";
-    case ErrorCode::kPlcHeartbeatLost: return "The PLC heartbeat (register 3) stopped changing.";
-    case ErrorCode::kInternal: return "Internal error: see the log (journalctl -u palletd).";
+    case ErrorCode::kUnknownRecipe:
+      return "The PLC asked for recipe " + std::to_string(detail) + ", which is not configured.";
+    case ErrorCode::kPlcHeartbeatLost:
+      return "The PLC heartbeat (register 3) stopped changing.";
+    case ErrorCode::kInternal:
+      return "Internal error: see the log (journalctl -u palletd).";
   }
   return "Unknown error code " + std::to_string(static_cast<unsigned>(code)) + ".";
 }
 
 const std::vector<std::string>& status_bit_names() {
-  static const std::vector<std::string> names{"Ready",          "Busy",        "TriggerAck",
-                                              "ResultReady",    "Error",       "MissedTrigger",
-                                              "CameraOK",       "HeartbeatToggle", "ResultOverrun"};
+  static const std::vector<std::string> names{
+      "Ready",         "Busy",     "TriggerAck",      "ResultReady",  "Error",
+      "MissedTrigger", "CameraOK", "HeartbeatToggle", "ResultOverrun"};
   return names;
 }
 

@@ -11,23 +11,23 @@ namespace palletd {
 
 /// The replay driver (driver: replay).
 struct ReplayOptions {
-  std::string directory;   ///< folder of frames
-  bool loop = true;        ///< start again after the last frame (the folder is listed again)
-  double rate_hz = 0.0;    ///< free-running rate [Hz]; 0 = one frame per software_trigger()
+  std::string directory;  ///< folder of frames
+  bool loop = true;       ///< start again after the last frame (the folder is listed again)
+  double rate_hz = 0.0;   ///< free-running rate [Hz]; 0 = one frame per software_trigger()
   std::optional<Intrinsics> intrinsics_override;
 };
 
 /// The Aravis driver (driver: aravis).
 struct AravisOptions {
-  std::string address;   ///< IP address: opened directly, no broadcast discovery
-  std::string serial;    ///< or serial number (discovery); checked against the camera if both
-  std::string user_id;   ///< or DeviceUserID (discovery)
+  std::string address;  ///< IP address: opened directly, no broadcast discovery
+  std::string serial;   ///< or serial number (discovery); checked against the camera if both
+  std::string user_id;  ///< or DeviceUserID (discovery)
   std::string pixel_format = "Coord3D_C16";  ///< Coord3D_C16 | Coord3D_ABC32f | Mono16
-  double mono16_scale_m = 0.001;  ///< [m per unit] for Mono16
-  int packet_size = 0;            ///< [bytes]; 0 = negotiate (auto packet size)
+  double mono16_scale_m = 0.001;             ///< [m per unit] for Mono16
+  int packet_size = 0;                       ///< [bytes]; 0 = negotiate (auto packet size)
   bool packet_resend = true;
-  int buffer_count = 8;           ///< stream buffer pool
-  bool software_trigger = true;   ///< trigger mode with TriggerSoftware when the camera has it
+  int buffer_count = 8;          ///< stream buffer pool
+  bool software_trigger = true;  ///< trigger mode with TriggerSoftware when the camera has it
   /// Free-running: this many timeouts in a row mean the stream stopped (camera faulted).
   int timeouts_before_fault = 2;
   std::optional<Intrinsics> intrinsics_override;
@@ -51,7 +51,7 @@ struct OpenNI2Options {
 struct CameraConfig {
   std::string driver = "replay";  ///< replay | aravis | openni2
   double frame_timeout_ms = 2000.0;
-  double reconnect_min_s = 0.5;   ///< first reconnect delay [s], doubling up to reconnect_max_s
+  double reconnect_min_s = 0.5;  ///< first reconnect delay [s], doubling up to reconnect_max_s
   double reconnect_max_s = 10.0;
   /// A call on the camera's control channel (software trigger, probe) not answered within this
   /// clears CameraOK at once, before the vendor library gives up on the call [ms].

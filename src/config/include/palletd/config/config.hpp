@@ -10,6 +10,7 @@
 
 #include <Eigen/Geometry>
 
+#include "palletd/config_table/table.hpp"
 #include "palletd/core/frame.hpp"
 #include "palletd/core/geometry.hpp"
 #include "palletd/detection/detection.hpp"
@@ -43,13 +44,6 @@ struct RecordingConfig {
   bool overlays = true;
 };
 
-/// The read-only status page served by the daemon (docs/commissioning.md): whether it runs, and
-/// the server's own options.
-struct WebConfig {
-  bool enabled = false;
-  WebOptions server;
-};
-
 struct Config {
   std::string source_path;  ///< the file this came from ("" = defaults)
   CameraConfig camera;
@@ -64,21 +58,6 @@ struct Config {
   WebConfig web;
 };
 
-/// A configuration error with its place: "FILE:LINE:COLUMN: KEY.PATH: message".
-class ConfigError : public std::runtime_error {
- public:
-  ConfigError(std::string file, int line, int column, std::string key_path, const std::string& message);
-  [[nodiscard]] const std::string& file() const { return file_; }
-  [[nodiscard]] int line() const { return line_; }      ///< 1-based, 0 when unknown
-  [[nodiscard]] int column() const { return column_; }  ///< 1-based, 0 when unknown
-  [[nodiscard]] const std::string& key_path() const { return key_path_; }
-
- private:
-  std::string file_;
-  int line_;
-  int column_;
-  std::string key_path_;
-};
 
 /// Loads and validates a configuration file. Throws ConfigError (start-up only).
 /// Relative paths in the file (camera.replay.directory, recording.directory) are resolved against

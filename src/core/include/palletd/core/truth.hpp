@@ -24,8 +24,8 @@ struct TruthBox {
 struct Truth {
   std::vector<TruthBox> boxes;
   Plane layer_plane;
-  std::vector<std::string> recipe;                 ///< format names
-  std::vector<std::array<int, 2>> recipe_mm;       ///< [long, short] per recipe format [mm]
+  std::vector<std::string> recipe;            ///< format names
+  std::vector<std::array<int, 2>> recipe_mm;  ///< [long, short] per recipe format [mm]
 };
 
 }  // namespace palletd

@@ -20,16 +20,16 @@ struct ResultSnapshot {
   std::uint16_t request_id = 0;
   std::uint16_t recipe = 0;
   modbus::ErrorCode error = modbus::ErrorCode::kNone;
-  std::string error_text;         ///< "" when the detection ran; else why it did not
+  std::string error_text;  ///< "" when the detection ran; else why it did not
   Detection detection;
   std::shared_ptr<const Frame> frame;  ///< the frame the result was computed from (may be null)
-  double latency_ms = 0.0;        ///< trigger edge to result published [ms]
+  double latency_ms = 0.0;             ///< trigger edge to result published [ms]
   std::chrono::system_clock::time_point time;
 };
 
 /// Live figures of the service, for the watchdog, sd_notify STATUS= and the status page.
 struct ServiceHealth {
-  bool threads_alive = false;     ///< every thread looped within the last few seconds
+  bool threads_alive = false;  ///< every thread looped within the last few seconds
   bool camera_ok = false;
   std::string camera_state;
   std::string camera_id;

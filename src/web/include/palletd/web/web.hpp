@@ -47,6 +47,13 @@ struct WebOptions {
   std::function<void(const std::string&)> log;
 };
 
+/// The read-only status page served by the daemon (docs/commissioning.md): whether it runs, and
+/// the server's own options.
+struct WebConfig {
+  bool enabled = false;
+  WebOptions server;
+};
+
 /// A recipe as the page shows it: number, name and its box formats (index = DetectedBox::format).
 struct RecipeInfo {
   int number = 0;
