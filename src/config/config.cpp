@@ -46,6 +46,10 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (const YAML::Node n = root["web"]) read_section(ctx, n, "web", web_table(), config.web);
 
   // Checks across keys, reported at the later key.
+  if (config.detection.roi && config.detection.roi->frame == RegionOfInterest::Frame::kBase && !config.T_base_camera) {
+    fail(ctx, root["detection"]["roi"]["frame"], "detection.roi.frame",
+         "a region in the base frame needs camera_to_base (or use frame: camera)");
+  }
   if (config.camera.reconnect_max_s < config.camera.reconnect_min_s) {
     const YAML::Node camera = root["camera"];
     const YAML::Node at = camera["reconnect_max_s"] ? camera["reconnect_max_s"] : camera["reconnect_min_s"];

@@ -9,6 +9,7 @@ namespace {
 const Table<PlaneParams>& plane_table() {
   static const Table<PlaneParams> t = {
       number("max_tilt_deg", &PlaneParams::max_tilt_deg, Range::closed(0.0, 89.0)),
+      number("max_base_tilt_deg", &PlaneParams::max_base_tilt_deg, Range::closed(0.0, 45.0)),
       number("ransac_distance_m", &PlaneParams::ransac_distance_m, Range::positive(0.1)),
       integer("ransac_max_iterations", &PlaneParams::ransac_max_iterations, 1, 100000),
       number("min_plane_area_m2", &PlaneParams::min_plane_area_m2, Range::closed(0.0, 100.0)),
@@ -94,6 +95,17 @@ const Table<LayoutParams>& layout_table() {
 
 const Table<DetectionParams>& detection_table() {
   static const Table<DetectionParams> t = {
+      {"roi",
+       [](const Context& ctx, const YAML::Node& node, const std::string& path, DetectionParams& out) {
+         out.roi = read_roi(ctx, node, path);
+       },
+       [](const DetectionParams& a, const DetectionParams& b, const std::string& path, std::vector<std::string>& diffs) {
+         const bool same = a.roi.has_value() == b.roi.has_value() &&
+                           (!a.roi || (a.roi->frame == b.roi->frame && a.roi->min_m == b.roi->min_m &&
+                                       a.roi->max_m == b.roi->max_m));
+         if (!same) diffs.push_back(path);
+       },
+       list_leaf<DetectionParams>},
       section("plane", &DetectionParams::plane, plane_table),
       section("layer", &DetectionParams::layer, layer_table),
       section("contour", &DetectionParams::contour, contour_table),

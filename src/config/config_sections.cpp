@@ -95,4 +95,29 @@ std::vector<Recipe> read_recipes(const Context& ctx, const YAML::Node& node, con
 }
 
 
+std::optional<RegionOfInterest> read_roi(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  if (node.IsNull()) return std::nullopt;
+  if (!node.IsMap()) fail(ctx, node, path, "expected a mapping {frame, min_m, max_m} or null, got " + describe(node));
+  check_keys(ctx, node, path, {"frame", "min_m", "max_m"});
+  RegionOfInterest roi;
+  const YAML::Node frame = require(ctx, node, path, "frame");
+  const std::string word = read_string(ctx, frame, join(path, "frame"));
+  if (word != "base" && word != "camera") fail(ctx, frame, join(path, "frame"), "must be base or camera (not '" + word + "')");
+  roi.frame = word == "base" ? RegionOfInterest::Frame::kBase : RegionOfInterest::Frame::kCamera;
+  for (auto [key, out] : {std::pair<const char*, Eigen::Vector3d*>{"min_m", &roi.min_m}, {"max_m", &roi.max_m}}) {
+    const YAML::Node v = require(ctx, node, path, key);
+    const std::string vpath = join(path, key);
+    if (!v.IsSequence() || v.size() != 3) fail(ctx, v, vpath, "expected a list of 3 numbers [x, y, z] in metres, got " + describe(v));
+    for (std::size_t i = 0; i < 3; ++i) (*out)[static_cast<Eigen::Index>(i)] = read_double(ctx, v[i], index_path(vpath, i));
+  }
+  for (Eigen::Index i = 0; i < 3; ++i) {
+    if (!(roi.min_m[i] < roi.max_m[i])) {
+      fail(ctx, node["max_m"], join(path, "max_m"),
+           std::string("must be above min_m on every axis (") + "xyz"[i] + ": " + std::to_string(roi.max_m[i]) +
+               " <= " + std::to_string(roi.min_m[i]) + ")");
+    }
+  }
+  return roi;
+}
+
 }  // namespace palletd::config_detail

@@ -26,6 +26,9 @@ const Table<RecordingConfig>& recording_table();
 // Sections with their own shape (config_sections.cpp).
 std::optional<Eigen::Isometry3d> read_camera_to_base(const Context& ctx, const YAML::Node& node,
                                                      const std::string& path);
+/// detection.roi: null, or {frame: base | camera, min_m: [x, y, z], max_m: [x, y, z]} with
+/// min < max on every axis.
+std::optional<RegionOfInterest> read_roi(const Context& ctx, const YAML::Node& node, const std::string& path);
 std::vector<BoxFormat> read_formats(const Context& ctx, const YAML::Node& node, const std::string& path);
 std::vector<Recipe> read_recipes(const Context& ctx, const YAML::Node& node, const std::string& path,
                                  const std::vector<BoxFormat>& formats);

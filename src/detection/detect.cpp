@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "poses.hpp"
+#include "roi.hpp"
 
 namespace palletd {
 
@@ -73,6 +74,11 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   if (!workspace.rays.matches(frame.intrinsics)) workspace.rays = RayTable(frame.intrinsics);
   OrganizedCloud& cloud = workspace.cloud;
   to_organized_cloud(frame, workspace.rays, cloud);
+  out.roi = params.roi;
+  if (params.roi) {
+    if (std::string problem = apply_region_of_interest(*params.roi, frame.T_base_camera, cloud); !problem.empty())
+      return finish(DetectionStatus::kBadFrame, problem);
+  }
   out.timing_ms["cloud"] = ms_since(t0);
 
   // Stages 1-5: plane, layer, components, crust contour.

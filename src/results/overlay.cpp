@@ -54,6 +54,30 @@ std::vector<cv::Point> project_ring(const Intrinsics& in, const Eigen::Isometry3
   return out;
 }
 
+/// The region of interest's twelve edges, where both ends lie in front of the camera.
+void draw_region(cv::Mat& image, const Frame& frame, const RegionOfInterest& roi, double scale) {
+  const bool in_base = roi.frame == RegionOfInterest::Frame::kBase;
+  if (in_base && !frame.T_base_camera) return;
+  const Eigen::Isometry3d T_camera_roi = in_base ? frame.T_base_camera->inverse() : Eigen::Isometry3d::Identity();
+  auto corner = [&](int i) {
+    return T_camera_roi * Eigen::Vector3d((i & 1) != 0 ? roi.max_m.x() : roi.min_m.x(),
+                                          (i & 2) != 0 ? roi.max_m.y() : roi.min_m.y(),
+                                          (i & 4) != 0 ? roi.max_m.z() : roi.min_m.z());
+  };
+  constexpr double kMinDepth_m = 0.05;  // edges reaching behind the camera are left out
+  for (int a = 0; a < 8; ++a) {
+    for (int bit : {1, 2, 4}) {
+      if ((a & bit) != 0) continue;
+      const Eigen::Vector3d p = corner(a), q = corner(a | bit);
+      if (p.z() < kMinDepth_m || q.z() < kMinDepth_m) continue;
+      const cv::Point2d u = project(frame.intrinsics, p, scale), v = project(frame.intrinsics, q, scale);
+      cv::line(image, cv::Point(static_cast<int>(std::lround(u.x)), static_cast<int>(std::lround(u.y))),
+               cv::Point(static_cast<int>(std::lround(v.x)), static_cast<int>(std::lround(v.y))),
+               cv::Scalar(0, 215, 255), 1, cv::LINE_AA);
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection& detection) {
@@ -63,6 +87,7 @@ std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection
   cv::Mat image = colour_depth(frame);
   if (scale > 1.0) cv::resize(image, image, cv::Size(), scale, scale, cv::INTER_NEAREST);
 
+  if (detection.roi) draw_region(image, frame, *detection.roi, scale);
   const LayerResult& layer = detection.layer;
   const int thick = 2;
   for (const auto& polygon : layer.polygons) {

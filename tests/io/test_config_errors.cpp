@@ -244,3 +244,39 @@ TEST_CASE("config error: a missing file names the file") {
     CHECK_THAT(e.what(), Contains(dir.file("bad.yaml") + ":2:10: logging.level: must be one of"));
   }
 }
+
+TEST_CASE("config: detection.roi in the base frame, with camera_to_base") {
+  const Config c = parse_config(R"(camera_to_base: [1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1]
+detection:
+  roi:
+    frame: base
+    min_m: [-0.8, -0.6, 0.1]
+    max_m: [0.8, 0.6, 2.2]
+)",
+                                "roi.yaml");
+  REQUIRE(c.detection.roi.has_value());
+  CHECK(c.detection.roi->frame == RegionOfInterest::Frame::kBase);
+  CHECK(c.detection.roi->min_m.isApprox(Eigen::Vector3d(-0.8, -0.6, 0.1)));
+  CHECK(c.detection.roi->max_m.isApprox(Eigen::Vector3d(0.8, 0.6, 2.2)));
+  CHECK_FALSE(parse_config("detection: {roi: null}\n", "none.yaml").detection.roi.has_value());
+}
+
+TEST_CASE("config error: detection.roi (base frame without camera_to_base, min >= max, lengths, frame word)") {
+  const Failure base = failure_of("detection:\n  roi:\n    frame: base\n    min_m: [0, 0, 0]\n    max_m: [1, 1, 1]\n");
+  CHECK(base.line == 3);
+  CHECK(base.key == "detection.roi.frame");
+  CHECK_THAT(base.what, Contains("camera_to_base"));
+  const Failure order =
+      failure_of("detection:\n  roi:\n    frame: camera\n    min_m: [0, 0, 2]\n    max_m: [1, 1, 1]\n");
+  CHECK(order.line == 5);
+  CHECK(order.key == "detection.roi.max_m");
+  CHECK_THAT(order.what, Contains("z: "));
+  const Failure length = failure_of("detection:\n  roi:\n    frame: camera\n    min_m: [0, 0]\n    max_m: [1, 1, 1]\n");
+  CHECK(length.line == 4);
+  CHECK(length.key == "detection.roi.min_m");
+  const Failure word = failure_of("detection:\n  roi:\n    frame: world\n    min_m: [0, 0, 0]\n    max_m: [1, 1, 1]\n");
+  CHECK(word.key == "detection.roi.frame");
+  CHECK_THAT(word.what, Contains("base or camera"));
+  const Failure missing = failure_of("detection:\n  roi: {frame: camera, min_m: [0, 0, 0]}\n");
+  CHECK_THAT(missing.what, Contains("max_m"));
+}

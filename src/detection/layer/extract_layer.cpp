@@ -298,7 +298,9 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   if (bad_frame) return fail(result, DetectionStatus::kBadFrame, *bad_frame);
 
   // Stage 1: top plane.
-  const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params, usable);
+  std::optional<Eigen::Vector3d> up_camera;  // the base's +z axis seen from the camera
+  if (frame.T_base_camera) up_camera = frame.T_base_camera->linear().transpose() * Eigen::Vector3d::UnitZ();
+  const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params, usable, up_camera);
   result.diagnostics.plane_candidates = top.candidates;
   result.diagnostics.t_plane_ms = ms_since(t_start);
   if (top.status != DetectionStatus::kOk) return fail(result, top.status, top.reason);

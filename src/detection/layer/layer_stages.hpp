@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -62,8 +63,12 @@ inline bool usable(const Eigen::Vector3f& p, const PlaneParams& params) {
 /// Finds the top plane: the nearest (along its normal) plane facing the camera whose inliers
 /// cover at least min_plane_area_m2; refits it by least squares on full-resolution inliers.
 /// `usable_points`: the number of usable points when the caller has counted them (0: counted here).
+/// `up_camera`: the robot base's +z axis in camera coordinates (from camera_to_base); with it,
+/// only level planes count (normal within max_base_tilt_deg of it), else planes whose normal lies
+/// within max_tilt_deg of the view axis.
 TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsics,
-                        const PlaneParams& params, std::size_t usable_points = 0);
+                        const PlaneParams& params, std::size_t usable_points = 0,
+                        const std::optional<Eigen::Vector3d>& up_camera = std::nullopt);
 
 // ---- stage 2: plane frame --------------------------------------------------------------------
 

@@ -148,6 +148,8 @@ struct RansacInput {
   pcl::PointCloud<pcl::PointXYZ>::Ptr points;  ///< every stride_px-th usable pixel in u and v
   int stride_px = 1;
   double band_m = 0.0;  ///< RANSAC inlier band [m]
+  Eigen::Vector3f axis = Eigen::Vector3f::UnitZ();  ///< a plane's normal lies within max_angle_rad of this
+  double max_angle_rad = 0.0;
 };
 
 /// The nearest plane facing the camera with enough area, as the RANSAC rounds found it.
@@ -207,13 +209,13 @@ RansacInput ransac_input(const OrganizedCloud& cloud, const PlaneParams& params,
 }
 
 /// One seeded RANSAC round on the remaining points for a plane whose normal lies within
-/// max_tilt_deg of the view axis: the plane (unit normal toward the camera) and its inliers;
-/// false when there is none.
+/// in.max_angle_rad of in.axis: the plane (unit normal toward the camera) and its inliers; false
+/// when there is none.
 bool ransac_round(const RansacInput& in, const pcl::Indices& remaining, std::uint32_t seed,
                   const PlaneParams& params, Plane& plane, pcl::Indices& inliers) {
   auto model = pcl::make_shared<SeededPlaneModel>(in.points, remaining, seed);
-  model->setAxis(Eigen::Vector3f(0.0F, 0.0F, 1.0F));
-  model->setEpsAngle(params.max_tilt_deg * kPi / 180.0);
+  model->setAxis(in.axis);
+  model->setEpsAngle(in.max_angle_rad);
   pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, in.band_m);
   ransac.setMaxIterations(params.ransac_max_iterations);
   ransac.setProbability(kRansacProbability);
@@ -351,7 +353,8 @@ double pixel_area_m2(double z_m, double plane_distance_m, const Intrinsics& intr
 }
 
 TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsics,
-                        const PlaneParams& params, std::size_t usable_points) {
+                        const PlaneParams& params, std::size_t usable_points,
+                        const std::optional<Eigen::Vector3d>& up_camera) {
   TopPlane result;
   // PCL prints RANSAC failures to stderr; detection does not log (its result says what failed).
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
@@ -359,7 +362,10 @@ TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsic
   if (usable_points == 0)
     for (const Eigen::Vector3f& p : cloud.points)
       if (usable(p, params)) ++result.valid_points;
-  const RansacInput in = ransac_input(cloud, params, result.valid_points);
+  RansacInput in = ransac_input(cloud, params, result.valid_points);
+  // Level layers when the calibration says which way is up; else planes facing the camera.
+  in.axis = up_camera ? Eigen::Vector3f(up_camera->normalized().cast<float>()) : Eigen::Vector3f::UnitZ();
+  in.max_angle_rad = (up_camera ? params.max_base_tilt_deg : params.max_tilt_deg) * kPi / 180.0;
   if (in.points->size() < kMinRansacPoints) {
     result.reason = "too few valid points for a plane search (" + std::to_string(in.points->size()) +
                     " after subsampling)";
@@ -370,9 +376,12 @@ TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsic
   result.candidates = search.candidates;
   if (!search.found) {
     result.reason = search.largest_small_area_m2 > 0.0
-                        ? "no plane facing the camera is large enough (largest " +
-                              std::to_string(search.largest_small_area_m2) + " m^2)"
-                        : "no plane facing the camera found";
+                        ? "no " + std::string(up_camera ? "level plane" : "plane facing the camera") +
+                              " is large enough (largest " + std::to_string(search.largest_small_area_m2) + " m^2)"
+                        : "no " + std::string(up_camera ? "level plane (within detection.plane.max_base_tilt_deg "
+                                                          "of the base +z axis)"
+                                                        : "plane facing the camera") +
+                              " found";
     return result;
   }
 

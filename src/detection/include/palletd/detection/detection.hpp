@@ -24,7 +24,21 @@ enum class PickOrder {
   kNearestFirst,    ///< nearest to the robot base (or camera) first
 };
 
+/// The work volume: an axis-aligned box; only the points inside it count, for every stage
+/// (config detection.roi). In the robot base frame it needs the frame's camera_to_base.
+struct RegionOfInterest {
+  enum class Frame { kBase, kCamera };
+  Frame frame = Frame::kBase;
+  Eigen::Vector3d min_m = Eigen::Vector3d::Zero();  ///< lower corner [m]
+  Eigen::Vector3d max_m = Eigen::Vector3d::Zero();  ///< upper corner [m]
+
+  [[nodiscard]] bool contains(const Eigen::Vector3d& p_m) const {
+    return (p_m.array() >= min_m.array()).all() && (p_m.array() <= max_m.array()).all();
+  }
+};
+
 struct DetectionParams {
+  std::optional<RegionOfInterest> roi;  ///< null: the whole view
   PlaneParams plane;
   LayerParams layer;
   ContourParams contour;
@@ -52,6 +66,7 @@ struct DetectedBox {
 struct Detection {
   DetectionStatus status = DetectionStatus::kBadFrame;
   std::string message;
+  std::optional<RegionOfInterest> roi;  ///< the work volume the detection ran in (null: the whole view)
   std::map<std::string, double> timing_ms;  ///< "total" plus per stage
   Plane plane_camera;
   double layer_area_m2 = 0.0;

@@ -19,6 +19,9 @@ namespace palletd {
 /// Top plane search (stage 1).
 struct PlaneParams {
   double max_tilt_deg = 35.0;          ///< planes whose normal is further than this from the view axis are ignored
+  /// With the frame's camera_to_base: layers of cartons are level, so only planes whose normal
+  /// lies within this of the base +z axis count (max_tilt_deg then does not apply) [deg].
+  double max_base_tilt_deg = 5.0;
   double ransac_distance_m = 0.008;    ///< smallest RANSAC inlier band [m] (wider when the measured depth noise needs it)
   int ransac_max_iterations = 200;
   double min_plane_area_m2 = 0.02;     ///< a plane smaller than this is no layer [m^2]

@@ -1,5 +1,6 @@
-// palletd io: the overlay picture a commissioning engineer looks at: the depth image in a colour
-// map with the detected layer outline and the numbered boxes (pick order) drawn over it.
+// palletd results: the overlay picture a commissioning engineer looks at: the depth image in a
+// colour map with the region of interest's edges, the detected layer outline and the numbered
+// boxes (pick order) drawn over it.
 #pragma once
 
 #include <cstdint>

@@ -1,0 +1,20 @@
+// Stage 0b of detect(): the work volume (RegionOfInterest) applied to the organized cloud.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <Eigen/Geometry>
+
+#include "palletd/core/frame.hpp"
+#include "palletd/detection/detection.hpp"
+
+namespace palletd {
+
+/// Marks every point outside the region as without depth (NaN), so that no stage sees it: the
+/// region's walls are where the view ends. Returns "" or why the region cannot be applied (a
+/// base-frame region and a frame without camera_to_base).
+std::string apply_region_of_interest(const RegionOfInterest& roi, const std::optional<Eigen::Isometry3d>& T_base_camera,
+                                     OrganizedCloud& cloud);
+
+}  // namespace palletd

@@ -1,0 +1,66 @@
+// The overlay PNG: the region of interest's edges drawn where the region projects.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/results/overlay.hpp"
+
+using namespace palletd;
+
+namespace {
+
+/// Distance from pixel q to the segment a-b [px].
+double segment_distance(const Eigen::Vector2d& q, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const Eigen::Vector2d ab = b - a;
+  const double t = std::clamp((q - a).dot(ab) / std::max(ab.squaredNorm(), 1e-12), 0.0, 1.0);
+  return (a + t * ab - q).norm();
+}
+
+}  // namespace
+
+TEST_CASE("overlay: the region of interest's edges are drawn where the region projects") {
+  auto frame = read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/22_block_600x400_xtion");
+  REQUIRE(frame);
+  REQUIRE(frame->T_base_camera.has_value());
+  Detection detection;  // nothing detected: only the region is drawn besides the depth
+  const cv::Mat plain = cv::imdecode(render_overlay_png(*frame, detection), cv::IMREAD_COLOR);
+  RegionOfInterest roi;
+  roi.frame = RegionOfInterest::Frame::kBase;
+  roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.0);
+  roi.max_m = Eigen::Vector3d(0.7, 0.5, 1.5);
+  detection.roi = roi;
+  const cv::Mat drawn = cv::imdecode(render_overlay_png(*frame, detection), cv::IMREAD_COLOR);
+  REQUIRE(plain.size() == drawn.size());
+  REQUIRE(drawn.cols == frame->intrinsics.width);  // 640 x 480: not scaled
+
+  // The region's edges in the image (pinhole projection of the corners).
+  const Eigen::Isometry3d T_camera_base = frame->T_base_camera->inverse();
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> edges;
+  auto pixel = [&](int i) {
+    const Eigen::Vector3d p = T_camera_base * Eigen::Vector3d((i & 1) != 0 ? roi.max_m.x() : roi.min_m.x(),
+                                                              (i & 2) != 0 ? roi.max_m.y() : roi.min_m.y(),
+                                                              (i & 4) != 0 ? roi.max_m.z() : roi.min_m.z());
+    const Intrinsics& k = frame->intrinsics;
+    return Eigen::Vector2d(k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy);
+  };
+  for (int a = 0; a < 8; ++a)
+    for (int bit : {1, 2, 4})
+      if ((a & bit) == 0) edges.emplace_back(pixel(a), pixel(a | bit));
+
+  int changed = 0, near_edge = 0;
+  for (int v = 40; v < drawn.rows; ++v) {  // below the caption
+    for (int u = 0; u < drawn.cols; ++u) {
+      if (drawn.at<cv::Vec3b>(v, u) == plain.at<cv::Vec3b>(v, u)) continue;
+      ++changed;
+      double best = 1e9;
+      for (const auto& [a, b] : edges) best = std::min(best, segment_distance(Eigen::Vector2d(u, v), a, b));
+      if (best <= 2.5) ++near_edge;
+    }
+  }
+  CHECK(changed > 300);
+  CHECK(near_edge == changed);
+}
