@@ -5,6 +5,18 @@
 
 namespace palletd {
 
+namespace {
+
+/// Below the region (base frame: lower than min_m.z; camera frame: further than max_m.z): the
+/// floor, a lower level. Such points stay, wherever they lie, because they show where the layer
+/// ends: a tilted camera sees the floor beyond a layer's far edge well outside the footprint, and
+/// without it that edge would look like one where the depth ends.
+bool below_region(const RegionOfInterest& roi, const Eigen::Vector3d& q) {
+  return roi.frame == RegionOfInterest::Frame::kBase ? q.z() < roi.min_m.z() : q.z() > roi.max_m.z();
+}
+
+}  // namespace
+
 std::string apply_region_of_interest(const RegionOfInterest& roi, const std::optional<Eigen::Isometry3d>& T_base_camera,
                                      OrganizedCloud& cloud) {
   const bool in_base = roi.frame == RegionOfInterest::Frame::kBase;
@@ -16,7 +28,9 @@ std::string apply_region_of_interest(const RegionOfInterest& roi, const std::opt
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (Eigen::Vector3f& p : cloud.points) {
     if (!p.allFinite()) continue;
-    if (!roi.contains(T_roi_camera * p.cast<double>())) p = Eigen::Vector3f(nan, nan, nan);
+    const Eigen::Vector3d q = T_roi_camera * p.cast<double>();
+    if (roi.contains(q) || below_region(roi, q)) continue;
+    p = Eigen::Vector3f(nan, nan, nan);
   }
   return {};
 }

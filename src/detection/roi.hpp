@@ -11,9 +11,10 @@
 
 namespace palletd {
 
-/// Marks every point outside the region as without depth (NaN), so that no stage sees it: the
-/// region's walls are where the view ends. Returns "" or why the region cannot be applied (a
-/// base-frame region and a frame without camera_to_base).
+/// Marks the points beside and above the region as without depth (NaN), so that no stage sees
+/// them (a cabinet, a robot base, a post). Points below it (the floor, a lower level) stay: they
+/// show where the layer ends. Returns "" or why the region cannot
+/// be applied (a base-frame region and a frame without camera_to_base).
 std::string apply_region_of_interest(const RegionOfInterest& roi, const std::optional<Eigen::Isometry3d>& T_base_camera,
                                      OrganizedCloud& cloud);
 

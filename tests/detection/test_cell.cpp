@@ -90,7 +90,36 @@ TEST_CASE("cell: the cabinet's top is the highest plane in view - the region lea
   REQUIRE(in_roi.status == DetectionStatus::kOk);
   CHECK(in_roi.boxes.size() == 6);
   CHECK_FALSE(in_roi.ambiguous);
+  for (const DetectedBox& b : in_roi.boxes) CHECK_FALSE(b.partly_unseen);
   for (const DetectedBox& b : in_roi.boxes) CHECK(base_height_m(in_roi, b) == Approx(kLoadTop_m).margin(0.01));
+}
+
+TEST_CASE("cell: a region whose floor lies above the cell's floor changes nothing on a lone pallet") {
+  SynthCamera cam = camera_looking_at(kLoadTop_m, 8.0, 30.0);
+  cam.distance_m = 2.4;
+  SynthNoise noise;
+  noise.dropout = 0.0;
+  SynthFrame f = render_synthetic(grid_layer(3, 2, 0.004, kLoadTop_m, true), cam, noise);
+  f.frame.T_base_camera = f.T_world_camera;
+  DetectionParams params;
+  const Detection whole = detect(f.frame, kFormats, params);
+  REQUIRE(whole.status == DetectionStatus::kOk);
+  REQUIRE_FALSE(whole.outline_unobserved);
+  // The region starts 0.5 m above the floor: the floor below it still shows where the layer ends,
+  // so no edge of the layer looks like an edge where the depth ends.
+  params.roi = load_region();
+  params.roi->min_m.z() = 0.5;
+  const Detection in_roi = detect(f.frame, kFormats, params);
+  INFO(in_roi.message);
+  REQUIRE(in_roi.status == DetectionStatus::kOk);
+  CHECK_FALSE(in_roi.outline_unobserved);
+  REQUIRE(in_roi.boxes.size() == whole.boxes.size());
+  for (const DetectedBox& b : in_roi.boxes) {
+    double nearest_m = 1e9;
+    for (const DetectedBox& w : whole.boxes) nearest_m = std::min(nearest_m, (b.center - w.center).norm());
+    CHECK(nearest_m < 0.0005);
+    CHECK_FALSE(b.partly_unseen);
+  }
 }
 
 TEST_CASE("cell: a region in the camera frame needs no calibration") {

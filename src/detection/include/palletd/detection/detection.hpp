@@ -24,8 +24,10 @@ enum class PickOrder {
   kNearestFirst,    ///< nearest to the robot base (or camera) first
 };
 
-/// The work volume: an axis-aligned box; only the points inside it count, for every stage
-/// (config detection.roi). In the robot base frame it needs the frame's camera_to_base.
+/// The work volume: an axis-aligned box; what stands beside or above it is left out of every
+/// stage (config detection.roi). What lies below it (the floor, a lower level) stays visible as
+/// where the layer ends. In the robot base frame it needs the frame's
+/// camera_to_base.
 struct RegionOfInterest {
   enum class Frame { kBase, kCamera };
   Frame frame = Frame::kBase;
