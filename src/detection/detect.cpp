@@ -20,6 +20,8 @@ const char* to_string(DetectionStatus status) {
     case DetectionStatus::kNoLayer: return "no_layer";
     case DetectionStatus::kNoLayout: return "no_layout";
     case DetectionStatus::kBadFrame: return "bad_frame";
+    case DetectionStatus::kEmpty: return "empty";
+    case DetectionStatus::kSlipSheet: return "slip_sheet";
   }
   return "bad_frame";
 }

@@ -11,7 +11,9 @@ modbus::DetectionFailure failure_of(DetectionStatus status) {
     case DetectionStatus::kNoLayer: return modbus::DetectionFailure::kNoLayer;
     case DetectionStatus::kNoLayout: return modbus::DetectionFailure::kNoLayout;
     case DetectionStatus::kBadFrame: return modbus::DetectionFailure::kBadFrame;
-    case DetectionStatus::kOk: break;
+    case DetectionStatus::kOk:
+    case DetectionStatus::kEmpty:
+    case DetectionStatus::kSlipSheet: break;
   }
   return modbus::DetectionFailure::kUnknown;
 }

@@ -3,8 +3,12 @@
 
 namespace palletd {
 
-enum class DetectionStatus { kOk, kNoPlane, kNoLayer, kNoLayout, kBadFrame };
-/// "ok", "no_plane", "no_layer", "no_layout", "bad_frame" (the words of shared/spec/detections.md).
+/// kEmpty: the top level inside the region of interest is the empty pallet, or nothing stands
+/// above it. kSlipSheet: a sheet covers the layer. Both come with no boxes and are no failure of
+/// the frame.
+enum class DetectionStatus { kOk, kNoPlane, kNoLayer, kNoLayout, kBadFrame, kEmpty, kSlipSheet };
+/// "ok", "no_plane", "no_layer", "no_layout", "bad_frame", "empty", "slip_sheet" (the words of
+/// shared/spec/detections.md).
 const char* to_string(DetectionStatus status);
 
 }  // namespace palletd
