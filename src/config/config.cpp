@@ -17,7 +17,7 @@ namespace {
 
 const std::vector<std::string>& top_level_keys() {
   static const std::vector<std::string> keys = {"camera",    "camera_to_base", "formats",
-                                                "recipes",   "detection",      "modbus",
+                                                "recipes",   "pallet",         "detection",      "modbus",
                                                 "pipeline",  "logging",        "recording", "web"};
   return keys;
 }
@@ -39,6 +39,7 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (const YAML::Node n = root["formats"]) config.formats = read_formats(ctx, n, "formats");
   if (const YAML::Node n = root["recipes"]) config.recipes = read_recipes(ctx, n, "recipes", config.formats);
   if (const YAML::Node n = root["detection"]) read_section(ctx, n, "detection", detection_table(), config.detection);
+  if (const YAML::Node n = root["pallet"]) read_section(ctx, n, "pallet", pallet_table(), config.detection.pallet);
   if (const YAML::Node n = root["modbus"]) read_section(ctx, n, "modbus", modbus::server_table(), config.modbus);
   if (const YAML::Node n = root["pipeline"]) read_section(ctx, n, "pipeline", pipeline_table(), config.pipeline);
   if (const YAML::Node n = root["logging"]) read_section(ctx, n, "logging", logging_table(), config.logging);
@@ -49,6 +50,9 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (config.detection.roi && config.detection.roi->frame == RegionOfInterest::Frame::kBase && !config.T_base_camera) {
     fail(ctx, root["detection"]["roi"]["frame"], "detection.roi.frame",
          "a region in the base frame needs camera_to_base (or use frame: camera)");
+  }
+  if (config.detection.pallet.top_z_m && !config.T_base_camera) {
+    fail(ctx, root["pallet"]["top_z_m"], "pallet.top_z_m", "a height in the base frame needs camera_to_base");
   }
   if (config.camera.reconnect_max_s < config.camera.reconnect_min_s) {
     const YAML::Node camera = root["camera"];
@@ -93,6 +97,24 @@ Config load_config(const std::string& path) {
   return parse_config(*text, path, base);
 }
 
+CellFile load_cell_file(const std::string& path) {
+  auto text = io_detail::read_text_file(path);
+  if (!text) throw ConfigError(path, 0, 0, "", "cannot read the cell file: " + text.error());
+  const Context ctx{path, ""};
+  const YAML::Node root = load_yaml(path, *text);
+  CellFile cell;
+  if (root.IsNull()) return cell;
+  if (!root.IsMap()) fail(ctx, root, "", "expected a mapping with detection.roi and pallet, got " + describe(root));
+  check_keys(ctx, root, "", {"detection", "pallet"});
+  if (const YAML::Node detection = root["detection"]) {
+    if (!detection.IsMap()) fail(ctx, detection, "detection", "expected a mapping holding roi, got " + describe(detection));
+    check_keys(ctx, detection, "detection", {"roi"});
+    if (const YAML::Node roi = detection["roi"]) cell.roi = read_roi(ctx, roi, "detection.roi");
+  }
+  if (const YAML::Node n = root["pallet"]) read_section(ctx, n, "pallet", pallet_table(), cell.pallet);
+  return cell;
+}
+
 std::vector<std::string> config_differences(const Config& a, const Config& b) {
   std::vector<std::string> diffs;
   compare_section(a.camera, b.camera, "camera", camera_table(), diffs);
@@ -100,7 +122,7 @@ std::vector<std::string> config_differences(const Config& a, const Config& b) {
       (a.T_base_camera && a.T_base_camera->matrix() != b.T_base_camera->matrix()))
     diffs.emplace_back("camera_to_base");
   const auto same_format = [](const BoxFormat& x, const BoxFormat& y) {
-    return x.name == y.name && x.long_m == y.long_m && x.short_m == y.short_m;
+    return x.name == y.name && x.long_m == y.long_m && x.short_m == y.short_m && x.height_m == y.height_m;
   };
   if (!std::equal(a.formats.begin(), a.formats.end(), b.formats.begin(), b.formats.end(), same_format))
     diffs.emplace_back("formats");
@@ -110,6 +132,7 @@ std::vector<std::string> config_differences(const Config& a, const Config& b) {
   if (!std::equal(a.recipes.begin(), a.recipes.end(), b.recipes.begin(), b.recipes.end(), same_recipe))
     diffs.emplace_back("recipes");
   compare_section(a.detection, b.detection, "detection", detection_table(), diffs);
+  compare_section(a.detection.pallet, b.detection.pallet, "pallet", pallet_table(), diffs);
   compare_section(a.modbus, b.modbus, "modbus", modbus::server_table(), diffs);
   compare_section(a.pipeline, b.pipeline, "pipeline", pipeline_table(), diffs);
   compare_section(a.logging, b.logging, "logging", logging_table(), diffs);
@@ -124,6 +147,7 @@ std::vector<std::string> config_key_paths() {
   keys.emplace_back("camera_to_base");
   keys.emplace_back("formats");
   keys.emplace_back("recipes");
+  list_section("pallet", pallet_table(), keys);
   list_section("detection", detection_table(), keys);
   list_section("modbus", modbus::server_table(), keys);
   list_section("pipeline", pipeline_table(), keys);

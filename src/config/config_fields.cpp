@@ -118,6 +118,14 @@ const Table<DetectionParams>& detection_table() {
   return t;
 }
 
+const Table<PalletParams>& pallet_table() {
+  static const Table<PalletParams> t = {
+      optional_number("top_z_m", &PalletParams::top_z_m, Range::closed(-10.0, 10.0)),
+      number("height_tolerance", &PalletParams::height_tolerance, Range::closed(0.01, 0.5)),
+  };
+  return t;
+}
+
 const Table<PipelineConfig>& pipeline_table() {
   static const Table<PipelineConfig> t = {
       number("detection_timeout_ms", &PipelineConfig::detection_timeout_ms, Range::positive(600000.0)),

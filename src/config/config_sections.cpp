@@ -36,7 +36,7 @@ std::vector<BoxFormat> read_formats(const Context& ctx, const YAML::Node& node, 
     const YAML::Node entry = node[i];
     const std::string epath = index_path(path, i);
     if (!entry.IsMap()) fail(ctx, entry, epath, "expected a mapping {name, long_mm, short_mm}, got " + describe(entry));
-    check_keys(ctx, entry, epath, {"name", "long_mm", "short_mm"});
+    check_keys(ctx, entry, epath, {"name", "long_mm", "short_mm", "height_mm"});
     BoxFormat f;
     const YAML::Node name_node = require(ctx, entry, epath, "name");
     f.name = read_string(ctx, name_node, join(epath, "name"));
@@ -53,6 +53,12 @@ std::vector<BoxFormat> read_formats(const Context& ctx, const YAML::Node& node, 
     if (short_mm > long_mm) fail(ctx, short_node, join(epath, "short_mm"), "must not exceed long_mm (long side first)");
     f.long_m = long_mm / 1000.0;
     f.short_m = short_mm / 1000.0;
+    if (const YAML::Node height_node = entry["height_mm"]; height_node && !height_node.IsNull()) {
+      const double height_mm = read_double(ctx, height_node, join(epath, "height_mm"));
+      if (height_mm <= 0.0 || height_mm > 5000.0)
+        fail(ctx, height_node, join(epath, "height_mm"), "must be > 0 and <= 5000 (or left out: unknown)");
+      f.height_m = height_mm / 1000.0;
+    }
     formats.push_back(std::move(f));
   }
   return formats;

@@ -19,6 +19,7 @@ using namespace config_table;
 // The configuration's own tables (config_fields.cpp); the modules' are camera_table(),
 // modbus::server_table() and web_table().
 const Table<DetectionParams>& detection_table();
+const Table<PalletParams>& pallet_table();
 const Table<PipelineConfig>& pipeline_table();
 const Table<LoggingConfig>& logging_table();
 const Table<RecordingConfig>& recording_table();

@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "level_checks.hpp"
 #include "poses.hpp"
 #include "roi.hpp"
 
@@ -44,6 +45,15 @@ std::string frame_problem(const Frame& frame) {
            std::to_string(frame.pixel_count());
   if (!(frame.depth_scale_m > 0.0) || !std::isfinite(frame.depth_scale_m)) return "depth_scale must be positive";
   return {};
+}
+
+/// Why the layout search flagged its answer, as a sentence for the operator.
+std::string ambiguity_reason(const LayoutResult& layout) {
+  if (!layout.runner_up.empty())
+    return "another arrangement of " + std::to_string(layout.runner_up.size()) +
+           " boxes explains the outline and the seams nearly as well";
+  if (layout.budget_exhausted) return "the search ended at its budget before it could rule out other arrangements";
+  return "part of the layer is not explained by the boxes found";
 }
 
 }  // namespace
@@ -83,11 +93,14 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   }
   out.timing_ms["cloud"] = ms_since(t0);
 
-  // Stages 1-5: plane, layer, components, crust contour.
+  // Stages 1-5: plane, layer, components, crust contour. The top level holds at least the
+  // smallest box: a smaller plane above it is no layer.
   double smallest_box_m2 = std::numeric_limits<double>::max();
   for (const auto& f : formats) smallest_box_m2 = std::min(smallest_box_m2, f.long_m * f.short_m);
-  out.layer = extract_layer(frame, cloud, params.plane, params.layer, params.contour,
-                            params.layer.min_component_box_fraction * smallest_box_m2);
+  const double min_piece_m2 = params.layer.min_component_box_fraction * smallest_box_m2;
+  PlaneParams plane_params = params.plane;
+  plane_params.min_plane_area_m2 = std::max(plane_params.min_plane_area_m2, min_piece_m2);
+  out.layer = extract_layer(frame, cloud, plane_params, params.layer, params.contour, min_piece_m2);
   const LayerDiagnostics& diag = out.layer.diagnostics;
   out.timing_ms["plane"] = diag.t_plane_ms;
   out.timing_ms["layer"] = diag.t_layer_ms;
@@ -97,19 +110,37 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.outline_unobserved = diag.outline_along_invalid;
   for (const auto& polygon : out.layer.polygons) out.layer_area_m2 += area(polygon);
   if (out.layer.status != DetectionStatus::kOk) return finish(out.layer.status, out.layer.reason);
+  const std::optional<double> layer_z_m = layer_base_z_m(out.layer, frame.T_base_camera);
+  // An empty pallet or a slip sheet ends the frame without boxes (and without a layout's flags).
+  auto without_boxes = [&](const LevelVerdict& verdict) {
+    out.ambiguous = false;
+    out.ambiguity_reason.clear();
+    out.status = verdict.status;
+    layer_height(layer_z_m, formats, params.pallet, out);
+    return finish(verdict.status, verdict.message);
+  };
+  if (std::optional<LevelVerdict> empty = empty_level(frame, out.layer, formats, params)) return without_boxes(*empty);
 
-  // Stages 6-7: layout search with seam evidence, refinement.
+  // Stages 6-7: layout search with seam evidence, refinement; then what the level is.
   t0 = Clock::now();
   const LayoutResult layout = solve_layout(frame, cloud, out.layer, formats, params.layout);
   out.timing_ms["layout"] = ms_since(t0);
   out.ambiguous = layout.ambiguous;
   out.budget_exhausted = layout.budget_exhausted;
   out.coverage = layout.coverage;
+  out.interior_seams = layout.interior_seams;
+  if (out.ambiguous) out.ambiguity_reason = ambiguity_reason(layout);
+  if (std::optional<LevelVerdict> level = level_after_layout(cloud, layout, out.layer, formats, params.plane)) {
+    if (level->status != DetectionStatus::kOk) return without_boxes(*level);
+    out.ambiguous = true;
+    out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + level->message;
+  }
   if (layout.status != DetectionStatus::kOk) return finish(layout.status, layout.reason);
 
-  // Stage 8: poses in the camera and base frames, pick order.
+  // Stage 8: poses in the camera and base frames, pick order, the layer's height.
   out.boxes = to_detected_boxes(layout.boxes, out.layer.T_camera_layer,
                                 frame.T_base_camera, params.pick_order);
+  layer_height(layer_z_m, formats, params.pallet, out);
   // The layer's warnings (an outline along invalid depth) stay with a successful frame.
   std::string message = out.layer.reason;
   if (layout.completed_unseen > 0) {

@@ -79,6 +79,10 @@ Expected<Truth> read_truth(const std::string& stem) {
       truth.recipe_mm.push_back({static_cast<int>(std::lround(mm[0])), static_cast<int>(std::lround(mm[1]))});
     }
   }
+  if (const auto it = j.find("expect"); it != j.end()) {
+    if (!it->is_string()) return fail("key 'expect' must be a string (boxes, empty, slip_sheet)");
+    truth.expect = it->get<std::string>();
+  }
   return truth;
 }
 
@@ -101,6 +105,8 @@ Status write_truth(const std::string& stem, const Truth& truth) {
   nlohmann::ordered_json mm = nlohmann::ordered_json::array();
   for (const auto& f : truth.recipe_mm) mm.push_back({f[0], f[1]});
   j["recipe_mm"] = std::move(mm);
+  // Only written when it is not the default, so the truth of ordinary frames keeps its bytes.
+  if (truth.expect != "boxes") j["expect"] = truth.expect;
   return io_detail::write_file_atomically(stem + kTruthSuffix, j.dump(2) + "\n");
 }
 

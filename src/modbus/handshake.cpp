@@ -48,8 +48,9 @@ void Handshake::refresh() {
   } else if (service_.error != ErrorCode::kNone) {
     s.error = service_.error;
     s.error_detail = service_.error_detail;
-  } else if (result_error_) {
-    s.error = result_error_code_;
+  } else {
+    // A failed result's error and detail; after a result without boxes, why (101 stays 0).
+    s.error = result_error_ ? result_error_code_ : ErrorCode::kNone;
     s.error_detail = result_error_detail_;
   }
   s.heartbeat = heartbeat_;
@@ -89,6 +90,7 @@ std::vector<HandshakeEvent> Handshake::on_control_written(const std::uint16_t* c
     result_unacked_ = false;
   }
   if (rising(before, after, kCtlClearError)) {
+    if (result_error_) result_error_detail_ = 0;  // a no-boxes reason stays with its result
     result_error_ = false;
     missed_trigger_ = false;
     overrun_ = false;
@@ -132,7 +134,7 @@ void Handshake::on_result(const ResultRecord& result, Clock::time_point now) {
   result_error_code_ = result_error_ ? (result.error == ErrorCode::kNone ? ErrorCode::kInternal
                                                                           : result.error)
                                      : ErrorCode::kNone;
-  result_error_detail_ = result_error_ ? result.error_detail : std::uint16_t{0};
+  result_error_detail_ = result_error_ ? result.error_detail : static_cast<std::uint16_t>(result.detail);
   processing_ms_ = result.processing_ms;
   if (busy_) {
     latency_ms_ = std::chrono::duration<double, std::milli>(now - trigger_time_).count();

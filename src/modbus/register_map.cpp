@@ -99,6 +99,7 @@ void encode_status(const StatusRecord& s, WordOrder order, RegisterImage& image)
 
 void clear_result(RegisterImage& image) {
   std::fill(image.begin() + kResultStart, image.end(), std::uint16_t{0});
+  std::fill_n(image.begin() + kResultExtStart, kResultExtCount, std::uint16_t{0});
 }
 
 void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
@@ -118,7 +119,19 @@ void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrde
   if (result.budget_exhausted) flags |= kResBudgetExhausted;
   if (result.layer_clipped) flags |= kResLayerClipped;
   if (result.outline_unobserved) flags |= kResOutlineUnobserved;
+  if (result.height_off_layers) flags |= kResHeightOffLayers;
   r[kRegResultFlags] = flags;
+  r[kRegResultDetail] = static_cast<std::uint16_t>(result.detail);
+  std::uint16_t layer_info = 0;
+  if (result.height_above_pallet_m) {
+    layer_info |= kLayerHeightKnown;
+    put_i32(r + kRegHeightAbovePallet, metres_to_tenth_mm(*result.height_above_pallet_m), order);
+  }
+  if (result.layers_remaining) {
+    layer_info |= kLayersRemainingKnown;
+    r[kRegLayersRemaining] = static_cast<std::uint16_t>(std::clamp(*result.layers_remaining, 0, 65535));
+  }
+  r[kRegLayerInfoFlags] = layer_info;
   put_i32(r + kRegLayerZ, metres_to_tenth_mm(result.layer_z_m), order);
   r[kRegCoverage] = unit_to_permille(result.coverage);
   for (std::uint16_t i = 0; i < reported; ++i) {
@@ -165,6 +178,11 @@ DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
   rec.budget_exhausted = (flags & kResBudgetExhausted) != 0;
   rec.layer_clipped = (flags & kResLayerClipped) != 0;
   rec.outline_unobserved = (flags & kResOutlineUnobserved) != 0;
+  rec.height_off_layers = (flags & kResHeightOffLayers) != 0;
+  rec.detail = static_cast<ResultDetail>(r[kRegResultDetail]);
+  if ((r[kRegLayerInfoFlags] & kLayerHeightKnown) != 0)
+    rec.height_above_pallet_m = tenth_mm_to_metres(get_i32(r + kRegHeightAbovePallet, order));
+  if ((r[kRegLayerInfoFlags] & kLayersRemainingKnown) != 0) rec.layers_remaining = r[kRegLayersRemaining];
   rec.layer_z_m = tenth_mm_to_metres(get_i32(r + kRegLayerZ, order));
   rec.coverage = r[kRegCoverage] * 1e-3;
   const std::uint16_t reported = std::min<std::uint16_t>(r[kRegBoxesReported], kMaxBoxes);

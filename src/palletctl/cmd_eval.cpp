@@ -25,8 +25,20 @@ struct EvalArgs {
   int recipe = 0;
   bool json = false;
   bool quiet = false;
+  bool cell_files = false;
   std::vector<std::string> dirs;
 };
+
+/// The parameters for one frame: with --cell-files, STEM.roi.yaml beside it (if there is one)
+/// sets the region of interest and the pallet. Throws ConfigError on a bad file.
+DetectionParams frame_params(const DetectionParams& base, const std::string& stem, bool cell_files) {
+  DetectionParams params = base;
+  if (!cell_files || !std::filesystem::exists(stem + ".roi.yaml")) return params;
+  const CellFile cell = load_cell_file(stem + ".roi.yaml");
+  if (cell.roi) params.roi = cell.roi;
+  if (cell.pallet.top_z_m) params.pallet = cell.pallet;
+  return params;
+}
 
 /// Whether the truth's layout is the only one its own outline supports: the truth boxes are drawn
 /// in their layer (gaps between neighbours bridged), the outline traced, and the best-first search
@@ -129,7 +141,9 @@ nlohmann::json to_json(const FrameEval& f) {
           {"yaw_error_deg", f.yaw_errors_deg},
           {"pairwise_error_mm", f.pairwise_error_mm},
           {"formats_right", f.formats_right},
+          {"expect", f.expect},
           {"exact", f.exact},
+          {"unflagged_wrong", f.unflagged_wrong},
           {"outline_tied", f.outline_tied},
           {"runtime_ms", f.runtime_ms}};
 }
@@ -160,7 +174,12 @@ nlohmann::json to_json(const EvalSummary& s) {
           {"tied_frames", s.tied_frames},
           {"tied_resolved", s.tied_resolved},
           {"tied_flagged", s.tied_flagged},
-          {"tied_wrong", s.tied_wrong}};
+          {"tied_wrong", s.tied_wrong},
+          {"unflagged_wrong", s.unflagged_wrong},
+          {"empty_frames", s.empty_frames},
+          {"empty_right", s.empty_right},
+          {"sheet_frames", s.sheet_frames},
+          {"sheet_right", s.sheet_right}};
 }
 
 int run_eval(const EvalArgs& a) {
@@ -197,7 +216,7 @@ int run_eval(const EvalArgs& a) {
       detection.status = DetectionStatus::kBadFrame;
       detection.message = frame.error();
     } else {
-      detection = detect(*frame, formats, setup.params, workspace);
+      detection = detect(*frame, formats, frame_params(setup.params, stem, a.cell_files), workspace);
     }
     FrameEval e = evaluate_frame(detection, *truth, names);
     e.frame = stem;
@@ -224,6 +243,8 @@ int run_eval(const EvalArgs& a) {
                 "outline-tied %zu: resolved %zu, flagged %zu, wrong %zu\n",
                 s.unambiguous_frames, s.unambiguous_exact, 100.0 * s.unambiguous_exact_rate, s.unambiguous_flagged,
                 s.tied_frames, s.tied_resolved, s.tied_flagged, s.tied_wrong);
+    std::printf("unflagged wrong %zu | empty pallets %zu: empty %zu | slip sheets %zu: slip_sheet %zu\n",
+                s.unflagged_wrong, s.empty_frames, s.empty_right, s.sheet_frames, s.sheet_right);
     std::printf("position error median %.2f mm, p95 %.2f mm, max %.2f mm | yaw median %.3f deg, p95 %.3f deg\n",
                 s.position_median_mm, s.position_p95_mm, s.position_max_mm, s.yaw_median_deg, s.yaw_p95_deg);
     std::printf("pairwise centroid-distance error (paper metric) mean %.2f mm | runtime median %.1f ms, p95 %.1f ms\n",
@@ -241,6 +262,9 @@ void register_eval(CLI::App& app) {
   cmd->add_option("--config", args->config, "palletd configuration (detection parameters)");
   cmd->add_option("--recipe", args->recipe, "with --config and no --box: the recipe's formats");
   cmd->add_flag("--json", args->json, "one JSON object per frame and a summary object");
+  cmd->add_flag("--cell-files", args->cell_files,
+                "use STEM.roi.yaml beside a frame (detection.roi and pallet, as palletctl simulate and palletctl roi "
+                "write them) for that frame");
   cmd->add_flag("-q,--quiet", args->quiet, "summary only");
   cmd->add_option("dirs", args->dirs, "folders of frames (or frame stems)")->required();
   cmd->callback([args] { throw CLI::RuntimeError(run_eval(*args)); });

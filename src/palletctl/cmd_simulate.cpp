@@ -1,5 +1,6 @@
 // palletctl simulate: render simulated frames (frame format + truth) into a folder.
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -33,6 +34,13 @@ struct SimulateArgs {
   double noise_scale = 1.0;
   bool no_noise = false;
   bool partial_view = false;
+  std::vector<std::string> scenes{"isolated"};
+  bool cell = false;
+  double oversize_max = 0.0;
+  std::string corner_radius_mm = "0";
+  double bevel_mm = 3.0;
+  int stepped_max = 3;
+  bool solid_deck = false;
   std::uint64_t seed = 1;
   std::string name;
   bool preview = false;
@@ -46,6 +54,57 @@ bool take(Expected<T> value, T& out) {
   }
   out = std::move(*value);
   return true;
+}
+
+/// "X" or "LO:HI" -> [lo, hi]; false when it is neither.
+bool parse_range(const std::string& text, double& lo, double& hi) {
+  const auto colon = text.find(':');
+  try {
+    lo = std::stod(text.substr(0, colon));
+    hi = colon == std::string::npos ? lo : std::stod(text.substr(colon + 1));
+  } catch (const std::exception&) {
+    return false;
+  }
+  return lo <= hi;
+}
+
+/// The options of issue 19: scene families, cell, real cartons, pallet deck.
+bool apply_cell_options(const SimulateArgs& a, sim::SetOptions& set) {
+  sim::ScenarioOptions& o = set.scenario;
+  for (const std::string& name : a.scenes) {
+    if (name == "all") {
+      set.scenes = {sim::SceneFamily::kIsolated, sim::SceneFamily::kCell, sim::SceneFamily::kStepped,
+                    sim::SceneFamily::kEmpty, sim::SceneFamily::kSlipSheet};
+      break;
+    }
+    sim::SceneFamily family{};
+    if (!take(sim::parse_scene(name), family)) return false;
+    set.scenes.push_back(family);
+  }
+  double lo_mm = 0.0, hi_mm = 0.0;
+  if (!parse_range(a.corner_radius_mm, lo_mm, hi_mm) || lo_mm < 0.0 || hi_mm > 50.0) {
+    spdlog::error("simulate: --corner-radius takes MM or LO:HI in 0..50 mm, not '{}'", a.corner_radius_mm);
+    return false;
+  }
+  o.corner_radius_min_m = lo_mm / 1000.0;
+  o.corner_radius_max_m = hi_mm / 1000.0;
+  o.cell = a.cell;
+  o.oversize_max = a.oversize_max;
+  o.bevel_m = a.bevel_mm / 1000.0;
+  o.stepped_max = a.stepped_max;
+  o.solid_deck = a.solid_deck;
+  return true;
+}
+
+/// STEM.roi.yaml beside a cell scene's frame: the region of interest suggested for it.
+bool write_roi(const std::string& stem, const sim::Scene& scene) {
+  const std::string text = sim::roi_yaml(scene);
+  if (text.empty()) return true;
+  std::ofstream out(stem + ".roi.yaml", std::ios::binary);
+  out << text;
+  if (out.flush()) return true;
+  spdlog::error("simulate: cannot write {}.roi.yaml", stem);
+  return false;
 }
 
 int run_simulate(const SimulateArgs& a) {
@@ -103,6 +162,7 @@ int run_simulate(const SimulateArgs& a) {
   o.lower_layers_max = std::max(a.lower_min, a.lower_max);
   o.gap_max_m = a.gap_max_mm / 1000.0;
   o.keep_layer_in_view = !a.partial_view;
+  if (!apply_cell_options(a, set)) return 2;
   set.render.noise_scale = a.noise_scale;
   if (a.no_noise) {
     set.render.noise = false;
@@ -137,6 +197,7 @@ int run_simulate(const SimulateArgs& a) {
       spdlog::error("simulate: {}", s.error());
       return 1;
     }
+    if (!write_roi(stem, f.scene)) return 1;
     if (a.preview) {
       sim::PreviewImage p = sim::render_preview(f);
       const cv::Mat image(p.height, p.width, CV_8UC3, p.bgr.data());
@@ -145,7 +206,9 @@ int run_simulate(const SimulateArgs& a) {
         return 1;
       }
     }
-    std::cout << name << ": " << f.scene.description << ", " << f.truth.boxes.size() << " boxes\n";
+    std::cout << name << ": " << f.scene.description << ", " << f.truth.boxes.size() << " boxes";
+    if (f.truth.expect != "boxes") std::cout << ", expect " << f.truth.expect;
+    std::cout << "\n";
   }
   return 0;
 }
@@ -160,7 +223,7 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--pattern", args->patterns,
                   "layer pattern(s), cycled: block, interlock, brick, pinwheel, chimney, mixed, all")
       ->capture_default_str();
-  cmd->add_option("--profile", args->profiles, "sensor profile(s), cycled: o3d303, o3d303-small, blaze101, helios2, xtion, all")
+  cmd->add_option("--profile", args->profiles, "sensor profile(s), cycled: o3d303, o3d303-small, blaze101, helios2, xtion, d435, all")
       ->capture_default_str();
   cmd->add_option("--pallet", args->pallet, "eur (1200x800), ind (1200x1000) or none")->capture_default_str();
   cmd->add_option("--format", args->formats, "box format LONGxSHORT[xHEIGHT] in mm (mixed takes two); default per pattern");
@@ -177,6 +240,20 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--noise-scale", args->noise_scale, "multiplies every noise sigma")->capture_default_str()->check(CLI::Range(0.0, 10.0));
   cmd->add_flag("--no-noise", args->no_noise, "no noise, dropouts or multipath (geometry only)");
   cmd->add_flag("--partial-view", args->partial_view, "do not force the top layer into view");
+  cmd->add_option("--scene", args->scenes,
+                  "scene family(ies), cycled: isolated, cell, stepped (1-3 boxes on a full level), empty (bare "
+                  "pallet), slip_sheet, all")
+      ->capture_default_str();
+  cmd->add_flag("--cell", args->cell, "put every scene in a cell (cabinet, posts, conveyor, second stack; writes STEM.roi.yaml)");
+  cmd->add_option("--oversize-max", args->oversize_max, "boxes built larger than nominal by up to this share (e.g. 0.05)")
+      ->capture_default_str()->check(CLI::Range(0.0, 0.1));
+  cmd->add_option("--corner-radius", args->corner_radius_mm, "rounded vertical box corners, MM or LO:HI drawn per box [mm]")
+      ->capture_default_str();
+  cmd->add_option("--bevel", args->bevel_mm, "rounded top edge radius of the boxes (+-30 % per box) [mm]")
+      ->capture_default_str()->check(CLI::Range(0.0, 20.0));
+  cmd->add_option("--stepped-max", args->stepped_max, "stepped scenes leave 1..N boxes on top")
+      ->capture_default_str()->check(CLI::Range(1, 20));
+  cmd->add_flag("--solid-deck", args->solid_deck, "the pallet deck as one slab (reproduces sets made before the board deck)");
   cmd->add_option("--seed", args->seed, "random seed; the same seed gives the same bytes")->capture_default_str();
   cmd->add_option("--name", args->name, "frame stem (with _NN appended when -n > 1)");
   cmd->add_flag("--preview", args->preview, "also write STEM.preview.png (depth colour map with truth outlines)");

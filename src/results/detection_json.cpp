@@ -15,6 +15,8 @@ using Json = nlohmann::ordered_json;
 
 Json vec3(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
+Json optional_number(const std::optional<double>& v) { return v ? Json(*v) : Json(nullptr); }
+
 }  // namespace
 
 std::string detection_to_json_line(const Detection& detection, const std::string& frame_stem) {
@@ -31,11 +33,17 @@ std::string detection_to_json_line(const Detection& detection, const std::string
   const Plane& p = detection.plane_camera;
   j["layer"] = {{"plane", {p.normal.x(), p.normal.y(), p.normal.z(), p.d}},
                 {"area_m2", detection.layer_area_m2},
-                {"coverage", detection.coverage}};
+                {"coverage", detection.coverage},
+                {"height_above_pallet_m", optional_number(detection.height_above_pallet_m)},
+                {"seams_seen", detection.interior_seams.length_m > 0.0
+                                   ? Json(detection.interior_seams.seen_share())
+                                   : Json(nullptr)}};
   j["ambiguous"] = detection.ambiguous;
+  j["ambiguity_reason"] = detection.ambiguity_reason;
   j["budget_exhausted"] = detection.budget_exhausted;
   j["clipped_by_image_border"] = detection.clipped_by_image_border;
   j["outline_unobserved"] = detection.outline_unobserved;
+  j["layers_remaining"] = detection.layers_remaining ? Json(*detection.layers_remaining) : Json(nullptr);
   Json boxes = Json::array();
   for (const DetectedBox& b : detection.boxes) {
     Json box;
@@ -156,6 +164,18 @@ Expected<ParsedDetection> parse_detection_line(const std::string& line) {
       return fail("layer.area_m2 must be a number");
     if (layer.contains("coverage") && !read_double(layer["coverage"], d.coverage))
       return fail("layer.coverage must be a number");
+    if (layer.contains("height_above_pallet_m") && !layer["height_above_pallet_m"].is_null()) {
+      double h = 0.0;
+      if (!read_double(layer["height_above_pallet_m"], h)) return fail("layer.height_above_pallet_m must be a number or null");
+      d.height_above_pallet_m = h;
+    }
+  }
+  if (j.contains("layers_remaining") && !j["layers_remaining"].is_null()) {
+    if (!j["layers_remaining"].is_number_integer()) return fail("key 'layers_remaining' must be an integer or null");
+    d.layers_remaining = j["layers_remaining"].get<int>();
+  }
+  if (j.contains("ambiguity_reason")) {
+    if (auto e = io_detail::get_string(j, "ambiguity_reason", d.ambiguity_reason); !e.empty()) return fail(e);
   }
   if (j.contains("ambiguous")) {
     if (!j["ambiguous"].is_boolean()) return fail("key 'ambiguous' must be true or false");

@@ -98,6 +98,7 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
                          const EvalOptions& options) {
   FrameEval e;
   e.status = to_string(detection.status);
+  e.expect = truth.expect.empty() ? "boxes" : truth.expect;
   e.ambiguous = detection.ambiguous;
   e.truth_boxes = truth.boxes.size();
   e.detected_boxes = detection.boxes.size();
@@ -142,8 +143,10 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
     }
   }
   e.pairwise_error_mm = pw_n > 0 ? pw_sum / static_cast<double>(pw_n) : 0.0;
-  e.exact = detection.status == DetectionStatus::kOk && e.matched == e.truth_boxes &&
-            e.matched == e.detected_boxes && within && e.formats_right;
+  e.exact = e.expect == "boxes" ? detection.status == DetectionStatus::kOk && e.matched == e.truth_boxes &&
+                                       e.matched == e.detected_boxes && within && e.formats_right
+                                 : e.status == e.expect;
+  e.unflagged_wrong = !e.exact && detection.status == DetectionStatus::kOk && !detection.ambiguous;
   return e;
 }
 
@@ -155,6 +158,14 @@ EvalSummary summarize(const std::vector<FrameEval>& frames) {
     if (f.status == "ok") ++s.ok_frames;
     if (f.exact) ++s.exact_frames;
     if (f.ambiguous) ++s.ambiguous_frames;
+    if (f.unflagged_wrong) ++s.unflagged_wrong;
+    if (f.expect == "empty") {
+      ++s.empty_frames;
+      if (f.exact) ++s.empty_right;
+    } else if (f.expect == "slip_sheet") {
+      ++s.sheet_frames;
+      if (f.exact) ++s.sheet_right;
+    }
     s.truth_boxes += f.truth_boxes;
     s.detected_boxes += f.detected_boxes;
     s.matched += f.matched;

@@ -1,4 +1,5 @@
 #include "palletd/results/overlay.hpp"
+#include "palletd/results/overlay_draw.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,10 +11,12 @@
 
 namespace palletd {
 
-namespace {
+double overlay_scale(const Intrinsics& intrinsics) {
+  return intrinsics.width < 500 ? std::ceil(640.0 / intrinsics.width) : 1.0;
+}
 
 // Depth in a colour map, stretched over the frame's valid depth range; invalid pixels black.
-cv::Mat colour_depth(const Frame& frame) {
+cv::Mat colour_depth_image(const Frame& frame) {
   const int w = frame.intrinsics.width, h = frame.intrinsics.height;
   std::uint16_t lo = std::numeric_limits<std::uint16_t>::max(), hi = 0;
   for (std::uint16_t d : frame.depth) {
@@ -37,25 +40,29 @@ cv::Mat colour_depth(const Frame& frame) {
   return colour;
 }
 
-cv::Point2d project(const Intrinsics& in, const Eigen::Vector3d& p_camera, double scale) {
+cv::Point2d project_to_overlay(const Intrinsics& in, const Eigen::Vector3d& p_camera, double scale) {
   const double u = in.fx * p_camera.x() / p_camera.z() + in.cx;
   const double v = in.fy * p_camera.y() / p_camera.z() + in.cy;
   return {(u + 0.5) * scale - 0.5, (v + 0.5) * scale - 0.5};
 }
+
+namespace {
 
 std::vector<cv::Point> project_ring(const Intrinsics& in, const Eigen::Isometry3d& T_camera_layer,
                                     const Ring2d& ring, double scale) {
   std::vector<cv::Point> out;
   out.reserve(ring.size());
   for (const auto& p : ring) {
-    const cv::Point2d q = project(in, T_camera_layer * Eigen::Vector3d(p.x(), p.y(), 0.0), scale);
+    const cv::Point2d q =
+        project_to_overlay(in, T_camera_layer * Eigen::Vector3d(p.x(), p.y(), 0.0), scale);
     out.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
   }
   return out;
 }
 
-/// The region of interest's twelve edges, where both ends lie in front of the camera.
-void draw_region(cv::Mat& image, const Frame& frame, const RegionOfInterest& roi, double scale) {
+}  // namespace
+
+void draw_region_edges(cv::Mat& image, const Frame& frame, const RegionOfInterest& roi, double scale) {
   const bool in_base = roi.frame == RegionOfInterest::Frame::kBase;
   if (in_base && !frame.T_base_camera) return;
   const Eigen::Isometry3d T_camera_roi = in_base ? frame.T_base_camera->inverse() : Eigen::Isometry3d::Identity();
@@ -70,7 +77,8 @@ void draw_region(cv::Mat& image, const Frame& frame, const RegionOfInterest& roi
       if ((a & bit) != 0) continue;
       const Eigen::Vector3d p = corner(a), q = corner(a | bit);
       if (p.z() < kMinDepth_m || q.z() < kMinDepth_m) continue;
-      const cv::Point2d u = project(frame.intrinsics, p, scale), v = project(frame.intrinsics, q, scale);
+      const cv::Point2d u = project_to_overlay(frame.intrinsics, p, scale);
+      const cv::Point2d v = project_to_overlay(frame.intrinsics, q, scale);
       cv::line(image, cv::Point(static_cast<int>(std::lround(u.x)), static_cast<int>(std::lround(u.y))),
                cv::Point(static_cast<int>(std::lround(v.x)), static_cast<int>(std::lround(v.y))),
                cv::Scalar(0, 215, 255), 1, cv::LINE_AA);
@@ -78,16 +86,14 @@ void draw_region(cv::Mat& image, const Frame& frame, const RegionOfInterest& roi
   }
 }
 
-}  // namespace
-
 std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection& detection) {
   const Intrinsics& in = frame.intrinsics;
   if (!in.valid() || frame.depth.size() != frame.pixel_count()) return {};
-  const double scale = in.width < 500 ? std::ceil(640.0 / in.width) : 1.0;
-  cv::Mat image = colour_depth(frame);
+  const double scale = overlay_scale(in);
+  cv::Mat image = colour_depth_image(frame);
   if (scale > 1.0) cv::resize(image, image, cv::Size(), scale, scale, cv::INTER_NEAREST);
 
-  if (detection.roi) draw_region(image, frame, *detection.roi, scale);
+  if (detection.roi) draw_region_edges(image, frame, *detection.roi, scale);
   const LayerResult& layer = detection.layer;
   const int thick = 2;
   for (const auto& polygon : layer.polygons) {
@@ -98,14 +104,15 @@ std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection
   for (const auto& box : detection.boxes) {
     std::vector<cv::Point> quad;
     for (const auto& c : box.in_layer.corners()) {
-      const cv::Point2d q = project(in, layer.T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0), scale);
+      const cv::Point2d q =
+          project_to_overlay(in, layer.T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0), scale);
       quad.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
     }
     cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(0, 0, 0), thick + 2,
                   cv::LINE_AA);
     cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(255, 0, 255), thick,
                   cv::LINE_AA);
-    const cv::Point2d c = project(in, box.center, scale);
+    const cv::Point2d c = project_to_overlay(in, box.center, scale);
     const std::string label = std::to_string(box.pick_index + 1);
     int baseline = 0;
     const double font = 0.6 * std::max(1.0, scale * in.width / 640.0);

@@ -37,13 +37,20 @@ double layer_z_m(const Detection& detection, bool base_frame) {
 
 modbus::ResultRecord to_result_record(const Detection& detection, bool base_frame) {
   modbus::ResultRecord r;
-  if (detection.status != DetectionStatus::kOk) {
+  if (detection.status == DetectionStatus::kEmpty || detection.status == DetectionStatus::kSlipSheet) {
+    r.status = modbus::ResultStatus::kNoBoxes;
+    r.detail = detection.status == DetectionStatus::kEmpty ? modbus::ResultDetail::kEmpty
+                                                           : modbus::ResultDetail::kSlipSheet;
+  } else if (detection.status != DetectionStatus::kOk) {
     r.status = modbus::ResultStatus::kFailed;
     r.error = modbus::ErrorCode::kDetectionFailed;
     r.error_detail = static_cast<std::uint16_t>(failure_of(detection.status));
   } else {
     r.status = detection.boxes.empty() ? modbus::ResultStatus::kNoBoxes : modbus::ResultStatus::kOk;
   }
+  r.height_above_pallet_m = detection.height_above_pallet_m;
+  r.layers_remaining = detection.layers_remaining;
+  r.height_off_layers = detection.height_off_layers;
   r.boxes_found = static_cast<std::uint16_t>(std::min<std::size_t>(detection.boxes.size(), 65535));
   const std::size_t n = std::min<std::size_t>(detection.boxes.size(), modbus::kMaxBoxes);
   // Boxes go out in pick order (detect() sorted them; pick_index 0 first).

@@ -68,6 +68,34 @@ bool slab(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vecto
   return true;
 }
 
+/// Rounded vertical corners: a hit at local point p that lies in a corner square outside its
+/// quarter circle is moved to where the ray enters that corner's vertical cylinder (radius r)
+/// below the rim; false when the ray misses it (it passes the rounded corner by).
+bool round_corner(const PreparedBox& b, const Eigen::Vector3d& lo_o, const Eigen::Vector3d& lo_d, double& t,
+                  Eigen::Vector3d& local_normal, bool& top) {
+  const double r = std::min(b.box->corner_radius_m, std::min(b.hx, b.hy));
+  const Eigen::Vector3d p = lo_o + t * lo_d;
+  const double cx = std::copysign(b.hx - r, p.x()), cy = std::copysign(b.hy - r, p.y());
+  const double ex = p.x() - cx, ey = p.y() - cy;
+  if (r <= 0.0 || std::abs(p.x()) <= b.hx - r || std::abs(p.y()) <= b.hy - r || ex * ex + ey * ey <= r * r)
+    return true;  // not in a cut-away corner
+  // Entering root of |(o + s d) - c|^2 = r^2 in the plane.
+  const double ox = lo_o.x() - cx, oy = lo_o.y() - cy;
+  const double qa = lo_d.x() * lo_d.x() + lo_d.y() * lo_d.y();
+  const double qb = ox * lo_d.x() + oy * lo_d.y();
+  const double qc = ox * ox + oy * oy - r * r;
+  const double disc = qb * qb - qa * qc;
+  if (qa < 1e-15 || disc < 0.0) return false;
+  const double s = (-qb - std::sqrt(disc)) / qa;
+  if (s < t) return false;
+  const Eigen::Vector3d q = lo_o + s * lo_d;
+  if (q.z() < b.z0 || q.z() > b.z1) return false;
+  t = s;
+  local_normal = Eigen::Vector3d(q.x() - cx, q.y() - cy, 0.0).normalized();
+  top = false;
+  return true;
+}
+
 }  // namespace
 
 PreparedBox prepare(const SimBox& box) {
@@ -148,9 +176,16 @@ bool intersect(const PreparedBox& b, const Eigen::Vector3d& o, const Eigen::Vect
       if (t >= t_best) return false;
     }
   }
+  Eigen::Vector3d corner_normal = Eigen::Vector3d::Zero();
+  if (b.box->corner_radius_m > 0.0) {
+    if (!round_corner(b, lo_o, lo_d, t, corner_normal, top) || t >= t_best) return false;
+  }
   hit.t = t;
   const Eigen::Vector3d p = lo_o + t * lo_d;
-  if (top) {
+  if (corner_normal.squaredNorm() > 0.0) {
+    hit.normal = local_normal_to_world(corner_normal);
+    hit.reflectance = b.box->reflectance;
+  } else if (top) {
     Eigen::Vector2d g = Eigen::Vector2d::Zero();
     if (!b.flat) top_offset(b, p.x(), p.y(), &g);
     hit.normal = local_normal_to_world(Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized());

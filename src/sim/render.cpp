@@ -277,6 +277,7 @@ class SensorModel {
         opt_(opt),
         boxes_(rays.boxes),
         tof_(profile.kind == SensorKind::kTimeOfFlight),
+        stereo_(profile.kind == SensorKind::kActiveStereo),
         p_invalid_(p_invalid),
         a_ref_(profile.reference_reflectance / (kReferenceRange_m * kReferenceRange_m)),
         projector_(rays.origin + rays.rotation * Eigen::Vector3d(profile.sl_baseline_m, 0.0, 0.0)),
@@ -304,6 +305,8 @@ class SensorModel {
         along_ray += g_depth * opt_.noise_scale * profile_.tof_sigma_2m_m * std::sqrt(a_ref_ / px.amplitude);
       }
       z += along_ray / ray_len;  // range r -> Z = r / |ray|
+    } else if (stereo_) {
+      if (opt_.noise) z += g_depth * opt_.noise_scale * stereo_sigma_m(profile_, z);  // 1 mm output steps only
     } else if (opt_.noise) {
       z += g_depth * opt_.noise_scale * sl_sigma_m(profile_, z);
       const double fb = k.fx * profile_.sl_baseline_m;
@@ -316,13 +319,14 @@ class SensorModel {
 
   /// Whether the pixel is dropped (options.invalid): a random dropout (`dropout` below the frame's
   /// rate), too weak a return, and for structured light an edge without pattern match
-  /// (`edge_roll`) or a point the projector does not light. Rolls are uniform in [0, 1).
+  /// (`edge_roll`) or a point the projector does not light; for active stereo a point the second
+  /// imager does not see (the same shadow test from its centre). Rolls are uniform in [0, 1).
   [[nodiscard]] bool dropped(const PixelSignal& px, double dropout, double edge_roll) const {
     if (dropout < p_invalid_) return true;
     if (px.amplitude < profile_.min_amplitude_rel * a_ref_) return true;
     if (tof_) return false;
     // No pattern match across an edge.
-    if (px.spread > kEdgeSpread_m && edge_roll < kEdgeDropChance) return true;
+    if (!stereo_ && px.spread > kEdgeSpread_m && edge_roll < kEdgeDropChance) return true;
     const Eigen::Vector3d d = projector_ - px.point;
     for (const PreparedBox& b : boxes_)
       if (b.zmax > px.point.z() + kShadowClearance_m && detail::blocks_segment(b, px.point, d, kShadowTMin)) {
@@ -336,6 +340,7 @@ class SensorModel {
   const RenderOptions& opt_;
   const std::vector<PreparedBox>& boxes_;
   bool tof_;
+  bool stereo_;
   double p_invalid_;           ///< dropout rate of this frame
   double a_ref_;               ///< amplitude of the reference surface [1/m^2]
   Eigen::Vector3d projector_;  ///< SL projector centre, world [m]
@@ -370,6 +375,24 @@ void apply_sensor(Frame& frame, const std::vector<PixelSignal>& signal, const st
     }
 }
 
+/// Active stereo: each pixel reports the surface its matching window locks on (see
+/// detail::stereo_sources); its own amplitude stays (the IR image is not matched).
+std::vector<PixelSignal> match_windows(const std::vector<PixelSignal>& signal, const SensorProfile& profile,
+                                       std::uint64_t seed) {
+  std::vector<double> z(signal.size());
+  for (std::size_t i = 0; i < signal.size(); ++i) z[i] = signal[i].z;
+  Rng window_rng(seed, 4);
+  const std::vector<std::size_t> source = detail::stereo_sources(z, profile.intrinsics.width, profile.intrinsics.height,
+                                                                 profile.stereo_fattening_px, window_rng);
+  std::vector<PixelSignal> matched = signal;
+  for (std::size_t i = 0; i < signal.size(); ++i) {
+    if (source[i] == i) continue;
+    matched[i] = signal[source[i]];
+    matched[i].amplitude = signal[i].amplitude;
+  }
+  return matched;
+}
+
 }  // namespace
 
 /// Ray casts the scene, mixes each pixel's samples, then applies the sensor (multipath, noise,
@@ -378,7 +401,8 @@ SimulatedFrame render(const Scene& scene, const SensorProfile& profile, std::uin
   const int ss = std::max(1, opt.supersampling > 0 ? opt.supersampling : profile.supersampling);
   const bool tof = profile.kind == SensorKind::kTimeOfFlight;
   const RayScene rays = prepare_rays(scene, profile.intrinsics);
-  const std::vector<PixelSignal> signal = cast_pixels(rays, profile.intrinsics, ss, tof);
+  std::vector<PixelSignal> signal = cast_pixels(rays, profile.intrinsics, ss, tof);
+  if (profile.kind == SensorKind::kActiveStereo) signal = match_windows(signal, profile, seed);
   const std::vector<float> bias = multipath_of(signal, profile, opt);
 
   SimulatedFrame out;

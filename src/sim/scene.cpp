@@ -13,8 +13,6 @@ using detail::kPi;
 using detail::PlacedBox;
 using detail::Rng;
 
-constexpr double kPalletHeight = 0.144;  // EUR pallet [m]
-
 double default_height_m(int long_mm, int short_mm) {
   if (long_mm >= 600) return 0.25;
   if (long_mm >= 400) return 0.22;
@@ -64,15 +62,17 @@ void decorate(SimBox& box, const ScenarioOptions& o, Rng& rng) {
     const double label_rho = rng.uniform(0.8, 0.9);
     box.patches.push_back({Eigen::Vector2d(label_x_m, label_y_m), half, label_rho});
   }
+  // Drawn last and only when asked for, so that scenes without it keep their random numbers.
+  if (o.corner_radius_max_m > 0.0) box.corner_radius_m = rng.uniform(o.corner_radius_min_m, o.corner_radius_max_m);
 }
 
 /// Turns a nominal pattern into real boxes: gaps, whole-layer offset, size tolerance, jitter.
 /// Boxes never overlap and stay inside the area (a perturbation is halved until it fits).
 std::vector<SimBox> build_layer(std::vector<PlacedBox> pattern, const std::vector<BoxFormatSpec>& formats,
-                                double base_z, double layer_height, const Scene& scene,
+                                double base_z, double layer_height, const Eigen::Vector2d& area_half_m,
                                 const ScenarioOptions& o, bool mirror, Rng& rng) {
-  const double hl = 0.5 * scene.pallet_long_m;
-  const double hs = 0.5 * scene.pallet_short_m;
+  const double hl = area_half_m.x();
+  const double hs = area_half_m.y();
   auto extent = [&](const PlacedBox& p) {
     const BoxFormatSpec& f = formats[static_cast<std::size_t>(p.format)];
     const bool along_x = std::abs(std::cos(p.yaw_rad)) > 0.5;
@@ -143,27 +143,6 @@ std::vector<SimBox> build_layer(std::vector<PlacedBox> pattern, const std::vecto
   return placed;
 }
 
-void add_pallet(Scene& scene) {
-  if (scene.pallet == PalletKind::kNone) return;
-  const double rho = 0.4;  // wood
-  SimBox deck;
-  deck.long_m = scene.pallet_long_m;
-  deck.short_m = scene.pallet_short_m;
-  deck.bottom_z_m = 0.122;
-  deck.top_z_m = kPalletHeight;
-  deck.reflectance = rho;
-  scene.boxes.push_back(deck);
-  for (int k = -1; k <= 1; ++k) {  // three rows of blocks along the long side
-    SimBox blocks = deck;
-    blocks.short_m = 0.145;
-    blocks.center = Eigen::Vector2d(0.0, k * (0.5 * scene.pallet_short_m - 0.0725));
-    blocks.bottom_z_m = 0.0;
-    blocks.top_z_m = 0.122;
-    blocks.reflectance = 0.35;
-    scene.boxes.push_back(blocks);
-  }
-}
-
 Eigen::Isometry3d camera_pose(const Eigen::Vector3d& target, double height, double tilt, double azimuth,
                               double roll) {
   const Eigen::Vector3d f(std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), -std::cos(tilt));
@@ -178,47 +157,153 @@ Eigen::Isometry3d camera_pose(const Eigen::Vector3d& target, double height, doub
   return T;
 }
 
-bool layer_in_view(const Scene& scene, const Intrinsics& k, double margin) {
+/// True when every point lies inside the image with the margin (a share of the image size).
+bool points_in_view(const Scene& scene, const std::vector<Eigen::Vector3d>& points, const Intrinsics& k,
+                    double margin) {
   const Eigen::Isometry3d T_camera_world = scene.T_world_camera.inverse();
   const double mu = margin * k.width, mv = margin * k.height;
-  for (std::size_t idx : scene.top_layer) {
-    const SimBox& b = scene.boxes[idx];
-    for (const auto& c : detail::footprint_corners(b.center, b.yaw_rad, b.long_m, b.short_m)) {
-      Eigen::Vector2d px;
-      if (!project(k, T_camera_world * Eigen::Vector3d(c.x(), c.y(), b.top_z_m), px)) return false;
-      if (px.x() < mu || px.y() < mv || px.x() > k.width - 1 - mu || px.y() > k.height - 1 - mv) return false;
-    }
+  for (const Eigen::Vector3d& p : points) {
+    Eigen::Vector2d px;
+    if (!project(k, T_camera_world * p, px)) return false;
+    if (px.x() < mu || px.y() < mv || px.x() > k.width - 1 - mu || px.y() > k.height - 1 - mv) return false;
   }
   return true;
 }
 
-void place_camera(Scene& scene, const ScenarioOptions& o, const SensorProfile& profile, Rng& rng) {
-  Eigen::Vector2d lo(1e30, 1e30), hi(-1e30, -1e30);
+/// The points the camera must see: the top-face corners of the top layer's boxes, or, with no
+/// boxes on top, the corners of the pallet's top plane (deck or slip sheet).
+std::vector<Eigen::Vector3d> focus_points(const Scene& scene) {
+  std::vector<Eigen::Vector3d> points;
   for (std::size_t idx : scene.top_layer) {
     const SimBox& b = scene.boxes[idx];
-    for (const auto& c : detail::footprint_corners(b.center, b.yaw_rad, b.long_m, b.short_m)) {
-      lo = lo.cwiseMin(c);
-      hi = hi.cwiseMax(c);
-    }
+    for (const auto& c : detail::footprint_corners(b.center, b.yaw_rad, b.long_m, b.short_m))
+      points.emplace_back(c.x(), c.y(), b.top_z_m);
+  }
+  if (points.empty())
+    for (const auto& c : detail::footprint_corners(Eigen::Vector2d::Zero(), 0.0, scene.pallet_long_m, scene.pallet_short_m))
+      points.emplace_back(c.x(), c.y(), scene.top_z_m);
+  return points;
+}
+
+/// The middle of the cabinet's top edge nearest the pallet (cell scenes), world [m].
+bool cabinet_edge(const Scene& scene, Eigen::Vector3d& point) {
+  if (scene.surroundings.empty()) return false;
+  const SimBox& b = scene.boxes[scene.surroundings.front()];
+  const Eigen::Vector2d inward = -b.center.normalized();
+  const Eigen::Vector2d across(-std::sin(b.yaw_rad), std::cos(b.yaw_rad));  // the short side's direction
+  const Eigen::Vector2d edge = b.center + 0.5 * b.short_m * (across.dot(inward) >= 0.0 ? across : -across);
+  point = Eigen::Vector3d(edge.x(), edge.y(), b.top_z_m);
+  return true;
+}
+
+/// Whether a drawn pose will do: the focus points in view; in a cell also not hidden by its
+/// parts, and in the first half of the draws the cabinet's near edge in view too.
+bool pose_fits(const Scene& scene, const std::vector<Eigen::Vector3d>& focus, const ScenarioOptions& o,
+               const Intrinsics& k, double share) {
+  if (!o.keep_layer_in_view) return true;
+  if (!points_in_view(scene, focus, k, o.view_margin)) return false;
+  if (scene.surroundings.empty()) return true;
+  if (detail::surroundings_hide(scene, focus)) return false;
+  Eigen::Vector3d edge;
+  return share >= 0.5 || !cabinet_edge(scene, edge) || points_in_view(scene, {edge}, k, 0.0);
+}
+
+void place_camera(Scene& scene, const ScenarioOptions& o, const SensorProfile& profile, Rng& rng) {
+  const std::vector<Eigen::Vector3d> focus = focus_points(scene);
+  Eigen::Vector2d lo(1e30, 1e30), hi(-1e30, -1e30);
+  for (const Eigen::Vector3d& p : focus) {
+    lo = lo.cwiseMin(p.head<2>());
+    hi = hi.cwiseMax(p.head<2>());
   }
   const Eigen::Vector2d mid = 0.5 * (lo + hi);
-  const double tilt_max = o.tilt_max_deg * kPi / 180.0;
+  // A cell's camera is calibrated and tilted by cell_tilt_min..max; elsewhere 0..tilt_max.
+  const bool in_cell = !scene.surroundings.empty();
+  const double tilt_hi_deg = in_cell ? std::min(o.tilt_max_deg, o.cell_tilt_max_deg) : o.tilt_max_deg;
+  const double tilt_lo_deg = in_cell ? std::min(o.cell_tilt_min_deg, tilt_hi_deg) : 0.0;
+  const double tilt_lo = tilt_lo_deg * kPi / 180.0;
+  const double tilt_max = tilt_hi_deg * kPi / 180.0 - tilt_lo;
   constexpr int kAttempts = 200;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     // Later attempts look from higher up and less tilted, which always fits in the end.
     const double share = static_cast<double>(attempt) / kAttempts;
     const double h_lo = o.height_min_m + share * (o.height_max_m - o.height_min_m);
     const double height = rng.uniform(h_lo, o.height_max_m);
-    const double tilt = rng.uniform(0.0, tilt_max * (1.0 - share));
+    const double tilt = tilt_lo + rng.uniform(0.0, tilt_max * (1.0 - share));
     const double azimuth = rng.uniform(0.0, 2.0 * kPi);
     const double roll = rng.uniform(0.0, 2.0 * kPi);
     const double target_dy_m = rng.uniform(-0.03, 0.03);  // y before x: see decorate()
     const double target_dx_m = rng.uniform(-0.03, 0.03);
     const Eigen::Vector3d target(mid.x() + target_dx_m, mid.y() + target_dy_m, scene.top_z_m);
     scene.T_world_camera = camera_pose(target, height, tilt, azimuth, roll);
-    if (!o.keep_layer_in_view || layer_in_view(scene, profile.intrinsics, o.view_margin)) return;
+    if (pose_fits(scene, focus, o, profile.intrinsics, share)) return;
   }
-  scene.T_world_camera = camera_pose(Eigen::Vector3d(mid.x(), mid.y(), scene.top_z_m), o.height_max_m, 0.0, 0.0, 0.0);
+  scene.T_world_camera = camera_pose(Eigen::Vector3d(mid.x(), mid.y(), scene.top_z_m), o.height_max_m, tilt_lo, 0.0, 0.0);
+}
+
+/// The layer as built: formats and layout grown by the oversize (names stay nominal), and the
+/// area the layer may cover (the pallet, grown likewise: oversized boxes overhang it).
+struct BuiltLayer {
+  std::vector<BoxFormatSpec> formats;
+  std::vector<PlacedBox> pattern;
+  Eigen::Vector2d half_area;
+};
+
+BuiltLayer build_sizes(const std::vector<PlacedBox>& pattern, const std::vector<BoxFormatSpec>& formats,
+                       const Scene& scene, const ScenarioOptions& o, Rng& rng) {
+  BuiltLayer built{formats, pattern, Eigen::Vector2d(0.5 * scene.pallet_long_m, 0.5 * scene.pallet_short_m)};
+  if (o.oversize_max <= 0.0) return built;  // no draw: scenes without oversize keep their numbers
+  const double scale = 1.0 + rng.uniform(0.2 * o.oversize_max, o.oversize_max);
+  for (BoxFormatSpec& f : built.formats) {
+    f.long_m *= scale;
+    f.short_m *= scale;
+  }
+  for (PlacedBox& p : built.pattern) p.center *= scale;
+  built.half_area *= scale;
+  return built;
+}
+
+/// Puts the boxes of the top layer that remain into the scene (fill and removal mode, or one to
+/// three on a stepped pallet); returns what remains, e.g. "8 of 12 boxes (rows)".
+std::string place_top_layer(Scene& scene, const std::vector<SimBox>& top, const ScenarioOptions& o, Rng& rng) {
+  const std::size_t n = top.size();
+  std::size_t keep = 0;
+  if (o.scene == SceneFamily::kStepped) {
+    const int lo = std::max(1, o.stepped_min);
+    keep = std::clamp<std::size_t>(static_cast<std::size_t>(rng.integer(lo, std::max(lo, o.stepped_max))), 1, n);
+  } else {
+    const double fill = std::clamp(o.fill, 0.0, 1.0);
+    keep = std::clamp<std::size_t>(static_cast<std::size_t>(std::lround(fill * static_cast<double>(n))), 1, n);
+  }
+  std::vector<bool> removed(n, false);
+  if (keep < n) {
+    const std::vector<std::size_t> order = detail::removal_order(top, o.removal, rng);
+    for (std::size_t i = 0; i < n - keep; ++i) removed[order[i]] = true;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (removed[i]) continue;
+    scene.top_layer.push_back(scene.boxes.size());
+    scene.boxes.push_back(top[i]);
+  }
+  char text[80];
+  std::snprintf(text, sizeof text, "%zu of %zu boxes (%s)", keep, n, keep < n ? to_string(o.removal).c_str() : "full");
+  return text;
+}
+
+/// The cell around the pallet (own random stream) and the region of interest suggested for it:
+/// the pallet grown by 0.1 m, from 0.05 m below the deck's top to 0.3 m above the full load.
+void add_cell(Scene& scene, const BoxFormatSpec& format, double load_top_m, int stack_layers,
+              const ScenarioOptions& o, std::uint64_t seed) {
+  Rng cell_rng(seed, 0xCE11);
+  detail::CellInput input;
+  input.load_top_z_m = load_top_m;
+  input.max_stack_layers = stack_layers;
+  input.stack_format = format;
+  input.solid_deck = o.solid_deck;
+  detail::add_surroundings(scene, input, cell_rng);
+  const double deck_m = scene.pallet == PalletKind::kNone ? 0.0 : detail::kPalletHeight_m;
+  scene.has_roi = true;
+  scene.roi_min_m = Eigen::Vector3d(-0.5 * scene.pallet_long_m - 0.1, -0.5 * scene.pallet_short_m - 0.1, deck_m - 0.05);
+  scene.roi_max_m = Eigen::Vector3d(0.5 * scene.pallet_long_m + 0.1, 0.5 * scene.pallet_short_m + 0.1, load_top_m + 0.3);
 }
 
 }  // namespace
@@ -247,6 +332,7 @@ Expected<Scene> make_scene(const ScenarioOptions& o, const SensorProfile& profil
   Rng rng(seed, 0x5CE4E);
   Scene scene;
   scene.pallet = o.pallet;
+  scene.family = o.scene;
   scene.pallet_long_m = 1.2;
   scene.pallet_short_m = o.pallet == PalletKind::kIndustrial1200x1000 ? 1.0 : 0.8;
   scene.floor_reflectance = rng.uniform(0.15, 0.35);
@@ -262,39 +348,45 @@ Expected<Scene> make_scene(const ScenarioOptions& o, const SensorProfile& profil
   if (pattern.empty())
     return Error{"no box of format " + formats[0].name + " fits the " + to_string(o.pallet) + " pallet"};
 
-  add_pallet(scene);
-  const double base = o.pallet == PalletKind::kNone ? 0.0 : kPalletHeight;
-  const int lower = rng.integer(std::max(0, o.lower_layers_min), std::max(o.lower_layers_min, o.lower_layers_max));
+  detail::add_pallet(scene, Eigen::Vector2d::Zero(), o.solid_deck);
+  const double base = o.pallet == PalletKind::kNone ? 0.0 : detail::kPalletHeight_m;
+  const BuiltLayer built = build_sizes(pattern, formats, scene, o, rng);
+  const int drawn_lower = rng.integer(std::max(0, o.lower_layers_min), std::max(o.lower_layers_min, o.lower_layers_max));
+  const bool needs_level = o.scene == SceneFamily::kStepped || o.scene == SceneFamily::kSlipSheet;
+  const int lower = o.scene == SceneFamily::kEmpty ? 0 : (needs_level ? std::max(drawn_lower, 1) : drawn_lower);
   double z = base;
   for (int layer = 0; layer < lower; ++layer) {
     // Lower layers alternate mirrored, as palletizers interlock them.
     const bool mirror = ((lower - layer) % 2) == 1;
-    for (SimBox& b : build_layer(pattern, formats, z, layer_height, scene, o, mirror, rng)) scene.boxes.push_back(b);
+    for (SimBox& b : build_layer(built.pattern, built.formats, z, layer_height, built.half_area, o, mirror, rng))
+      scene.boxes.push_back(b);
     z += layer_height;
   }
-  std::vector<SimBox> top = build_layer(pattern, formats, z, layer_height, scene, o, false, rng);
-  scene.top_z_m = z + layer_height;
-
-  const std::size_t n = top.size();
-  const double fill = std::clamp(o.fill, 0.0, 1.0);
-  const std::size_t keep = std::clamp<std::size_t>(static_cast<std::size_t>(std::lround(fill * static_cast<double>(n))), 1, n);
-  std::vector<bool> removed(n, false);
-  if (keep < n) {
-    const std::vector<std::size_t> order = detail::removal_order(top, o.removal, rng);
-    for (std::size_t i = 0; i < n - keep; ++i) removed[order[i]] = true;
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (removed[i]) continue;
-    scene.top_layer.push_back(scene.boxes.size());
-    scene.boxes.push_back(top[i]);
+  std::string load;
+  if (o.scene == SceneFamily::kEmpty) {
+    scene.top_z_m = base;
+    scene.expect = "empty";
+    load = "empty pallet";
+  } else if (o.scene == SceneFamily::kSlipSheet) {
+    // The sheet lies flat on the highest bulges of the level below.
+    scene.top_z_m = detail::add_slip_sheet(scene, z + o.bulge_max_m + o.height_tolerance_m + 0.0005, rng);
+    scene.expect = "slip_sheet";
+    load = "slip sheet";
+  } else {
+    const std::vector<SimBox> top = build_layer(built.pattern, built.formats, z, layer_height, built.half_area, o, false, rng);
+    scene.top_z_m = z + layer_height;
+    load = place_top_layer(scene, top, o, rng);
   }
   scene.recipe = formats;
   for (const BoxFormatSpec& f : o.extra_recipe) scene.recipe.push_back(f);
-
-  char text[160];
-  std::snprintf(text, sizeof text, "%s %s on %s, %d lower layers, %zu of %zu boxes (%s)", to_string(o.pattern).c_str(),
-                formats[0].name.c_str(), to_string(o.pallet).c_str(), lower, keep, n,
-                keep < n ? to_string(o.removal).c_str() : "full");
+  if (o.cell || o.scene == SceneFamily::kCell) {
+    const double load_top_m = std::max(scene.top_z_m, base + (drawn_lower + 1) * layer_height);
+    add_cell(scene, built.formats[0], load_top_m, std::max(1, drawn_lower), o, seed);
+  }
+  char text[200];
+  std::snprintf(text, sizeof text, "%s %s on %s, %d lower layers, %s%s", to_string(o.pattern).c_str(),
+                formats[0].name.c_str(), to_string(o.pallet).c_str(), lower, load.c_str(),
+                scene.surroundings.empty() ? "" : ", in a cell");
   scene.description = text;
   place_camera(scene, o, profile, rng);
   return scene;
@@ -315,6 +407,7 @@ Truth make_truth(const Scene& scene) {
     t.format = b.format;
     truth.boxes.push_back(t);
   }
+  truth.expect = scene.expect;
   truth.layer_plane.normal = R * Eigen::Vector3d::UnitZ();
   truth.layer_plane.d = -truth.layer_plane.normal.dot(T_camera_world * Eigen::Vector3d(0.0, 0.0, scene.top_z_m));
   for (const BoxFormatSpec& f : scene.recipe) {

@@ -39,6 +39,24 @@ std::string to_string(PalletKind pallet) {
   return "eur";
 }
 
+std::string to_string(SceneFamily family) {
+  switch (family) {
+    case SceneFamily::kIsolated: return "isolated";
+    case SceneFamily::kCell: return "cell";
+    case SceneFamily::kStepped: return "stepped";
+    case SceneFamily::kEmpty: return "empty";
+    case SceneFamily::kSlipSheet: return "slip_sheet";
+  }
+  return "isolated";
+}
+
+Expected<SceneFamily> parse_scene(const std::string& text) {
+  for (SceneFamily f : {SceneFamily::kIsolated, SceneFamily::kCell, SceneFamily::kStepped, SceneFamily::kEmpty,
+                        SceneFamily::kSlipSheet})
+    if (to_string(f) == text) return f;
+  return Error{"unknown scene '" + text + "' (isolated, cell, stepped, empty, slip_sheet)"};
+}
+
 Expected<PatternFamily> parse_pattern(const std::string& text) {
   for (PatternFamily p : {PatternFamily::kBlock, PatternFamily::kInterlock, PatternFamily::kBrick, PatternFamily::kPinwheel,
                           PatternFamily::kChimney, PatternFamily::kMixed})
@@ -94,12 +112,15 @@ Expected<std::vector<SimulatedFrame>> generate_set(const SetOptions& options) {
     scenario.pattern = patterns[index % patterns.size()];
     scenario.fill = rng.uniform(options.fill_min, options.fill_max);
     scenario.removal = removals[rng.index(removals.size())];
+    if (!options.scenes.empty()) scenario.scene = options.scenes[index % options.scenes.size()];
     const SensorProfile& profile = profiles[index % profiles.size()];
     auto scene = make_scene(scenario, profile, seed);
     if (!scene) return Error{scene.error()};
     SimulatedFrame frame = render(*scene, profile, seed, options.render);
-    char name[200];
-    std::snprintf(name, sizeof name, "%04d_%s_%s_%s", i, to_string(scenario.pattern).c_str(),
+    // Isolated scenes keep the names they had before there were scene families.
+    const std::string family = scenario.scene == SceneFamily::kIsolated ? "" : to_string(scenario.scene) + "_";
+    char name[240];
+    std::snprintf(name, sizeof name, "%04d_%s%s_%s_%s", i, family.c_str(), to_string(scenario.pattern).c_str(),
                   scene->recipe.front().name.c_str(), profile.name.c_str());
     frame.name = name;
     frame.frame.sequence = index;

@@ -82,4 +82,36 @@ bool footprints_overlap(const SimBox& a, const SimBox& b, double tolerance_m = 1
 /// Order in which a depalletizer removes the boxes (first = removed first).
 std::vector<std::size_t> removal_order(const std::vector<SimBox>& layer, RemovalMode mode, Rng& rng);
 
+constexpr double kPalletHeight_m = 0.144;  ///< EUR and industrial pallets [m]
+
+/// Adds a pallet's parts centred at `center` (x along its long side): top deck boards with gaps,
+/// three cross boards, nine blocks, three bottom boards; or, with `solid_deck`, the deck as one
+/// slab over three solid rows of blocks (the model before issue 19).
+void add_pallet(Scene& scene, const Eigen::Vector2d& center, bool solid_deck);
+
+/// Lays a slip sheet (with curled edge strips) whose underside is at `bottom_z_m` over the
+/// pallet; returns the height of its top face [m]. Its parts have format_index -1.
+double add_slip_sheet(Scene& scene, double bottom_z_m, Rng& rng);
+
+/// What the cell's surroundings are sized from.
+struct CellInput {
+  double load_top_z_m = 0.0;      ///< top of the full load [m]
+  int max_stack_layers = 1;       ///< layers the second stack may have
+  BoxFormatSpec stack_format;     ///< format of the second stack's boxes
+  bool solid_deck = false;
+};
+/// Adds a cabinet (always, taller than the load), and by chance fence posts, a roller conveyor at
+/// pallet height and a second lower stack, each on its own side of the pallet, outside the
+/// region of interest; records them in Scene::surroundings (the cabinet first).
+void add_surroundings(Scene& scene, const CellInput& input, Rng& rng);
+
+/// Active stereo: for each pixel (row-major, depth z [m], 0 = none) the pixel whose surface the
+/// block matching reports there: itself, or the closest pixel within a window whose reach is drawn
+/// per pixel in 1..max_px that lies more than 1 cm nearer. Foreground thus grows by 1-2 pixels
+/// (ragged) and seams up to about two pixels wide fill at the depth beside them; no depth is mixed.
+std::vector<std::size_t> stereo_sources(const std::vector<double>& z, int w, int h, int max_px, Rng& rng);
+
+/// True when a part of the surroundings lies between the camera and one of the world points.
+bool surroundings_hide(const Scene& scene, const std::vector<Eigen::Vector3d>& points_world);
+
 }  // namespace palletd::sim::detail

@@ -161,12 +161,23 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
   if (rec.budget_exhausted) flags += "search budget exhausted; ";
   if (rec.layer_clipped) flags += "layer clipped by the image border; ";
   if (rec.outline_unobserved) flags += "outline partly unobserved (the layer may go on where the depth ends); ";
+  if (rec.height_off_layers) flags += "height not a whole number of box heights; ";
   if (!flags.empty()) flags.resize(flags.size() - 2);
   result.push_back(row(image, modbus::kRegResultFlags, 1, "result flags", hex16(image[modbus::kRegResultFlags]),
                        flags.empty() ? "none set" : flags));
   result.push_back(row(image, modbus::kRegLayerZ, 2, "layer height z", fixed(rec.layer_z_m * 1000.0, 1) + " mm", ""));
   result.push_back(row(image, modbus::kRegCoverage, 1, "coverage", fixed(rec.coverage * 100.0, 1) + " %",
                        "layer area covered by the boxes"));
+  const char* detail = rec.detail == modbus::ResultDetail::kEmpty       ? "empty pallet"
+                       : rec.detail == modbus::ResultDetail::kSlipSheet ? "slip sheet: remove it"
+                                                                         : "-";
+  result.push_back(row(image, modbus::kRegResultDetail, 1, "result detail", plain(image, modbus::kRegResultDetail), detail));
+  result.push_back(row(image, modbus::kRegHeightAbovePallet, 2, "height above pallet",
+                       rec.height_above_pallet_m ? fixed(*rec.height_above_pallet_m * 1000.0, 1) + " mm" : "-",
+                       rec.height_above_pallet_m ? "" : "needs pallet.top_z_m and camera_to_base"));
+  result.push_back(row(image, modbus::kRegLayersRemaining, 1, "layers left",
+                       rec.layers_remaining ? std::to_string(*rec.layers_remaining) : "-",
+                       rec.layers_remaining ? "counting the top layer" : "needs the formats' height_mm too"));
   result.push_back(row(image, modbus::kResultIdCopy, 1, "result id copy", std::to_string(res.result_id_copy),
                        res.result_id_copy == res.result_id ? "matches 200" : "differs from 200: torn read"));
 

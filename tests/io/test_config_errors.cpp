@@ -1,5 +1,6 @@
 // Configuration errors: each kind with file:line:column and the key path.
 #include <catch2/catch.hpp>
+#include <algorithm>
 
 #include "palletd/config/config.hpp"
 #include "png_util.hpp"
@@ -55,9 +56,9 @@ TEST_CASE("config error: unknown keys, top level and nested") {
   CHECK(deep.key == "detection.plane.max_tilt");
   CHECK_THAT(deep.what, Contains("max_tilt_deg"));  // lists the known keys
 
-  const Failure in_list = failure_of("formats:\n  - {name: A, long_mm: 3, short_mm: 2, height_mm: 1}\n");
+  const Failure in_list = failure_of("formats:\n  - {name: A, long_mm: 3, short_mm: 2, weight_kg: 1}\n");
   CHECK(in_list.line == 2);
-  CHECK(in_list.key == "formats[0].height_mm");
+  CHECK(in_list.key == "formats[0].weight_kg");
 }
 
 TEST_CASE("config error: duplicate key") {
@@ -279,4 +280,45 @@ TEST_CASE("config error: detection.roi (base frame without camera_to_base, min >
   CHECK_THAT(word.what, Contains("base or camera"));
   const Failure missing = failure_of("detection:\n  roi: {frame: camera, min_m: [0, 0, 0]}\n");
   CHECK_THAT(missing.what, Contains("max_m"));
+}
+
+TEST_CASE("config: pallet.top_z_m and formats' height_mm") {
+  const Config c = parse_config(R"(camera_to_base: [1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1]
+formats:
+  - {name: F600, long_mm: 600, short_mm: 400, height_mm: 220}
+  - {name: F315, long_mm: 315, short_mm: 232}
+pallet:
+  top_z_m: 0.144
+)",
+                                "pallet.yaml");
+  REQUIRE(c.detection.pallet.top_z_m.has_value());
+  CHECK(*c.detection.pallet.top_z_m == Approx(0.144));
+  CHECK(c.formats[0].height_m == Approx(0.22));
+  CHECK(c.formats[1].height_m == 0.0);
+  CHECK_FALSE(parse_config("pallet: {top_z_m: null}\n", "none.yaml").detection.pallet.top_z_m.has_value());
+  const Config other = parse_config(R"(camera_to_base: [1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1]
+formats:
+  - {name: F600, long_mm: 600, short_mm: 400, height_mm: 200}
+  - {name: F315, long_mm: 315, short_mm: 232}
+pallet:
+  top_z_m: 0.15
+)",
+                                    "other.yaml");
+  const std::vector<std::string> diffs = config_differences(c, other);
+  CHECK(std::find(diffs.begin(), diffs.end(), "formats") != diffs.end());
+  CHECK(std::find(diffs.begin(), diffs.end(), "pallet.top_z_m") != diffs.end());
+}
+
+TEST_CASE("config error: pallet.top_z_m without camera_to_base, height_mm out of range") {
+  const Failure uncalibrated = failure_of("pallet:\n  top_z_m: 0.144\n");
+  CHECK(uncalibrated.line == 2);
+  CHECK(uncalibrated.key == "pallet.top_z_m");
+  CHECK_THAT(uncalibrated.what, Contains("camera_to_base"));
+  const Failure word = failure_of("pallet:\n  top_z_m: high\n");
+  CHECK(word.key == "pallet.top_z_m");
+  const Failure height = failure_of("formats:\n  - {name: A, long_mm: 600, short_mm: 400, height_mm: 0}\n");
+  CHECK(height.line == 2);
+  CHECK(height.key == "formats[0].height_mm");
+  const Failure tolerance = failure_of("pallet:\n  height_tolerance: 0.9\n");
+  CHECK(tolerance.key == "pallet.height_tolerance");
 }

@@ -102,6 +102,39 @@ TEST_CASE("detection line round trip through the parser") {
   REQUIRE(p.boxes[1].base_position.has_value());
   CHECK(*p.boxes[1].base_position == Eigen::Vector3d(1.0, 2.0, 0.5));
   CHECK(p.boxes[1].base_yaw_deg == -90.0);
+  // Heights unknown: null, read back as unknown.
+  CHECK_FALSE(p.height_above_pallet_m.has_value());
+  CHECK_FALSE(p.layers_remaining.has_value());
+}
+
+TEST_CASE("detection line: layer height, layers left, ambiguity reason, the no-box statuses") {
+  Detection d = sample_detection();
+  d.height_above_pallet_m = 0.75;
+  d.layers_remaining = 3;
+  d.ambiguity_reason = "another arrangement of 4 boxes explains the outline and the seams nearly as well";
+  d.interior_seams.length_m = 2.0;
+  d.interior_seams.seen_m = 1.5;
+  const auto j = nlohmann::json::parse(detection_to_json_line(d, "f"));
+  CHECK(j["layer"]["height_above_pallet_m"] == 0.75);
+  CHECK(j["layer"]["seams_seen"] == 0.75);
+  CHECK(j["layers_remaining"] == 3);
+  CHECK(j["ambiguity_reason"] == d.ambiguity_reason);
+  auto parsed = parse_detection_line(detection_to_json_line(d, "f"));
+  REQUIRE(parsed.ok());
+  CHECK(parsed->height_above_pallet_m == 0.75);
+  CHECK(parsed->layers_remaining == 3);
+  CHECK(parsed->ambiguity_reason == d.ambiguity_reason);
+
+  Detection sheet;
+  sheet.status = DetectionStatus::kSlipSheet;
+  const auto s = nlohmann::json::parse(detection_to_json_line(sheet, "g"));
+  CHECK(s["status"] == "slip_sheet");
+  CHECK(s["boxes"].empty());
+  CHECK(s["layers_remaining"].is_null());
+  CHECK(s["layer"]["seams_seen"].is_null());
+  sheet.status = DetectionStatus::kEmpty;
+  CHECK(nlohmann::json::parse(detection_to_json_line(sheet, "g"))["status"] == "empty");
+  CHECK_FALSE(parse_detection_line(R"({"frame":"f","status":"ok","boxes":[],"layers_remaining":"3"})").ok());
 }
 
 TEST_CASE("a failed frame still makes a complete line") {

@@ -152,6 +152,33 @@ TEST_CASE("failed results set Error until ClearError or a good result", "[modbus
   CHECK((plc.status() & (kStError | kStCameraOk)) == kStCameraOk);
 }
 
+TEST_CASE("a result without boxes says why in 102 and 130, without Error", "[modbus][handshake]") {
+  Clock::time_point now{};
+  Handshake hs(HandshakeOptions{}, now);
+  Plc plc{{}, hs, now};
+  hs.on_service_status(ready_status());
+  plc.write(kCtlTrigger, 1, 8);
+  ResultRecord sheet;
+  sheet.request_id = 8;
+  sheet.status = ResultStatus::kNoBoxes;
+  sheet.detail = ResultDetail::kSlipSheet;
+  hs.on_result(sheet, now);
+  CHECK((plc.status() & (kStError | kStResultReady)) == kStResultReady);
+  CHECK(hs.registers()[kRegErrorCode] == 0);
+  CHECK(hs.registers()[kRegErrorDetail] == 6);
+  CHECK(hs.registers()[kRegResultDetail] == 6);
+  CHECK(hs.registers()[kRegResultStatus] == 1);
+  // ClearError does not clear a reason that belongs to the result in the block.
+  plc.word(kCtlClearError);
+  CHECK(hs.registers()[kRegErrorDetail] == 6);
+  // The next result replaces it.
+  plc.word(0);
+  plc.write(kCtlTrigger, 1, 9);
+  hs.on_result(ok_result(9, 2), now);
+  CHECK(hs.registers()[kRegErrorDetail] == 0);
+  CHECK(hs.registers()[kRegResultDetail] == 0);
+}
+
 TEST_CASE("a result replacing an unacknowledged one sets ResultOverrun", "[modbus][handshake]") {
   Clock::time_point now{};
   Handshake hs(HandshakeOptions{}, now);

@@ -129,6 +129,45 @@ TEST_CASE("a result encodes into 200..530 and decodes back in both word orders",
         Approx(make_result(3).boxes[0].x_m).margin(1e-3));
 }
 
+TEST_CASE("the result extension 130..134: detail, height above the pallet, layers left",
+          "[modbus][register_map]") {
+  for (const WordOrder order : {WordOrder::kHighWordFirst, WordOrder::kLowWordFirst}) {
+    RegisterImage image{};
+    image.fill(0xABCD);
+    ResultRecord in = make_result(2);
+    in.height_above_pallet_m = 0.7512;
+    in.layers_remaining = 3;
+    in.height_off_layers = true;
+    encode_result(in, 9, order, image);
+    CHECK(image[kRegResultDetail] == 0);
+    CHECK(image[kRegLayerInfoFlags] == (kLayerHeightKnown | kLayersRemainingKnown));
+    CHECK(image[kRegLayersRemaining] == 3);
+    CHECK((image[kRegResultFlags] & kResHeightOffLayers) != 0);
+    for (std::uint16_t a = kRegLayersRemaining + 1; a < kResultExtStart + kResultExtCount; ++a) CHECK(image[a] == 0);
+    CHECK(image[kResultExtStart + kResultExtCount] == 0xABCD);  // the rest of the gap untouched
+    const DecodedResult out = decode_result(image, order);
+    REQUIRE(out.record.height_above_pallet_m);
+    CHECK(*out.record.height_above_pallet_m == Approx(0.7512).margin(1e-4));
+    CHECK(out.record.layers_remaining == 3);
+    CHECK(out.record.height_off_layers);
+
+    // An empty pallet: no boxes, detail 5; heights unknown read as unknown.
+    ResultRecord empty;
+    empty.status = ResultStatus::kNoBoxes;
+    empty.detail = ResultDetail::kEmpty;
+    encode_result(empty, 10, order, image);
+    CHECK(image[kRegResultDetail] == 5);
+    CHECK(image[kRegLayerInfoFlags] == 0);
+    CHECK(image[kRegHeightAbovePallet] == 0);
+    const DecodedResult e = decode_result(image, order);
+    CHECK(e.record.detail == ResultDetail::kEmpty);
+    CHECK_FALSE(e.record.height_above_pallet_m);
+    CHECK_FALSE(e.record.layers_remaining);
+    clear_result(image);
+    CHECK(image[kRegResultDetail] == 0);
+  }
+}
+
 TEST_CASE("the status block carries version, format flags and the test pattern",
           "[modbus][register_map]") {
   StatusRecord s;

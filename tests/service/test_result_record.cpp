@@ -68,6 +68,27 @@ TEST_CASE("failed detections carry the failure as error detail, an empty layout 
   CHECK(palletd::to_result_record(empty, false).status == palletd::modbus::ResultStatus::kNoBoxes);
 }
 
+TEST_CASE("an empty pallet and a slip sheet are 'no boxes' with their detail, never a failure") {
+  using palletd::modbus::ResultDetail;
+  for (const auto& [status, detail] : {std::pair{DetectionStatus::kEmpty, ResultDetail::kEmpty},
+                                       std::pair{DetectionStatus::kSlipSheet, ResultDetail::kSlipSheet}}) {
+    Detection d;
+    d.status = status;
+    d.height_above_pallet_m = 0.01;
+    d.layers_remaining = 0;
+    const auto r = palletd::to_result_record(d, true);
+    CHECK(r.status == palletd::modbus::ResultStatus::kNoBoxes);
+    CHECK(r.error == palletd::modbus::ErrorCode::kNone);
+    CHECK(r.detail == detail);
+    CHECK(r.height_above_pallet_m == 0.01);
+    CHECK(r.layers_remaining == 0);
+  }
+  Detection off;
+  off.status = DetectionStatus::kOk;
+  off.height_off_layers = true;
+  CHECK(palletd::to_result_record(off, false).height_off_layers);
+}
+
 TEST_CASE("more boxes than the register map holds are counted but only 32 reported") {
   Detection d;
   d.status = DetectionStatus::kOk;

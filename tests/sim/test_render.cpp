@@ -110,6 +110,8 @@ TEST_CASE("each profile's measured noise at 2 m matches its model") {
     double model = 0.0;
     if (p.kind == SensorKind::kTimeOfFlight) {
       model = p.tof_sigma_2m_m;  // reference reflectance 0.5 at 2 m
+    } else if (p.kind == SensorKind::kActiveStereo) {
+      model = 4.0 * p.stereo_sigma_px / (k.fx * p.sl_baseline_m);  // z^2 sigma_d / (fx b), no disparity steps
     } else {
       const double nguyen = 0.0012 + 0.0019 * (2.0 - 0.4) * (2.0 - 0.4);
       const double q = 4.0 * p.sl_disparity_step_px / (k.fx * p.sl_baseline_m);

@@ -286,6 +286,45 @@ PlaneSearch search_planes(const RansacInput& in, const Intrinsics& intrinsics, c
   return search;
 }
 
+/// The cloud's points on the camera side of `plane` by more than kMaxBand (a higher level), on a
+/// pixel grid that keeps about kRansacPoints of them; band and axis as in `like`.
+RansacInput points_above(const OrganizedCloud& cloud, const Plane& plane, const RansacInput& like,
+                         const PlaneParams& params) {
+  const Eigen::Vector3f n = plane.normal.cast<float>();
+  const auto d = static_cast<float>(plane.d);
+  const auto step = static_cast<float>(kMaxBand);
+  std::size_t count = 0;
+  for (const Eigen::Vector3f& p : cloud.points)
+    if (usable(p, params) && n.dot(p) + d > step) ++count;
+  RansacInput in = like;
+  in.points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  in.stride_px = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(count) / kRansacPoints))));
+  const int stride = in.stride_px;
+  for (int v = stride / 2; v < cloud.height; v += stride) {
+    for (int u = stride / 2; u < cloud.width; u += stride) {
+      const Eigen::Vector3f& p = cloud.at(u, v);
+      if (usable(p, params) && n.dot(p) + d > step) in.points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    }
+  }
+  return in;
+}
+
+/// The subsampled search sees a level of one or two boxes far from the camera with a few dozen
+/// points and may miss it: look again among the points above the best plane, on a grid that
+/// samples them densely, until no higher level with enough area is left.
+void search_higher_levels(const OrganizedCloud& cloud, const RansacInput& in, const Intrinsics& intrinsics,
+                          const PlaneParams& params, PlaneSearch& search) {
+  constexpr int kMaxHigherLevels = 3;
+  for (int k = 0; k < kMaxHigherLevels && search.found; ++k) {
+    const RansacInput above = points_above(cloud, search.best, in, params);
+    if (above.points->size() < kMinRansacPoints) return;
+    const PlaneSearch higher = search_planes(above, intrinsics, params);
+    if (!higher.found) return;
+    search.best = higher.best;
+    search.candidates += higher.candidates;
+  }
+}
+
 /// Least-squares refit of the RANSAC plane, first within the RANSAC band; then kRefits times
 /// within kBandSigmas robust sigmas at each point's depth (the residuals' median absolute
 /// deviation per depth bin, so quantised, noisy or far sensors get a wide band where they need
@@ -372,7 +411,8 @@ TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsic
     return result;
   }
 
-  const PlaneSearch search = search_planes(in, intrinsics, params);
+  PlaneSearch search = search_planes(in, intrinsics, params);
+  search_higher_levels(cloud, in, intrinsics, params, search);
   result.candidates = search.candidates;
   if (!search.found) {
     result.reason = search.largest_small_area_m2 > 0.0

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "layer_raster.hpp"
+#include "layout_internal.hpp"
 #include "palletd/detection/layout.hpp"
 
 namespace palletd {
@@ -30,10 +31,17 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
   if (p.search.outline_tolerance_m <= 0.0) {
     p.search.outline_tolerance_m = p.search.outline_tolerance_pitches * layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
   }
-  const LayoutResult found = find_layout(layer.polygons, formats, p, &seams, &around);
-  if (!p.refine.enabled || p.search.mode == SearchMode::kPaper) return found;
+  LayoutResult result = find_layout(layer.polygons, formats, p, &seams, &around);
   const std::vector<RimPixel> rim = build_layer_rim(frame, cloud, layer);
-  return refine_layout(found, layer, formats, &seams, p, &around, &rim);
+  if (p.refine.enabled && p.search.mode != SearchMode::kPaper) {
+    result = refine_layout(result, layer, formats, &seams, p, &around, &rim);
+  }
+  result.interior_seams = measure_interior_seams(result.boxes, seams, layer.polygons);
+  result.pixel_pitch_m = layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
+  double outline_m = 0.0;
+  for (const PolygonWithHoles& polygon : layer.polygons) outline_m += layout_detail::rings_length_m(polygon);
+  if (outline_m > 0.0) result.rim_share = static_cast<double>(rim.size()) * result.pixel_pitch_m / outline_m;
+  return result;
 }
 
 }  // namespace palletd

@@ -68,6 +68,15 @@ Config load_config(const std::string& path);
 Config parse_config(const std::string& yaml_text, const std::string& name,
                     const std::string& base_directory = "");
 
+/// The cell settings a file beside a frame may carry (STEM.roi.yaml, as the simulator and
+/// `palletctl roi` write it): `detection.roi` and `pallet`, in the configuration's syntax. A
+/// base-frame region needs the frame's camera_to_base (not checked here). Throws ConfigError.
+struct CellFile {
+  std::optional<RegionOfInterest> roi;
+  PalletParams pallet;
+};
+CellFile load_cell_file(const std::string& path);
+
 /// Key paths ("modbus.port", "formats", ...) whose values differ between two configurations
 /// (source_path is not compared). Empty when they are equal.
 std::vector<std::string> config_differences(const Config& a, const Config& b);

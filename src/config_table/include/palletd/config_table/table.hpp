@@ -117,6 +117,22 @@ Field<S> number(const char* key, T S::*member, Range range) {
           compare_member(member), list_leaf<S>};
 }
 
+/// An optional floating-point member: null (or ~) leaves it unset, a number must lie in range.
+template <typename S>
+Field<S> optional_number(const char* key, std::optional<double> S::*member, Range range) {
+  return {key,
+          [member, range](const Context& ctx, const YAML::Node& node, const std::string& path, S& out) {
+            if (node.IsNull()) {
+              out.*member = std::nullopt;
+              return;
+            }
+            const double v = read_double(ctx, node, path);
+            if (!range.contains(v)) fail(ctx, node, path, "must be " + range.text() + " (or null: unknown)");
+            out.*member = v;
+          },
+          compare_member(member), list_leaf<S>};
+}
+
 /// An integer member with its valid range (inclusive).
 template <typename S, typename T>
 Field<S> integer(const char* key, T S::*member, long long lo, long long hi) {

@@ -36,6 +36,7 @@ struct BoxFormat {
   double long_m = 0.0;
   double short_m = 0.0;
   std::string name;  ///< e.g. "F315" or "315x232"
+  double height_m = 0.0;  ///< box height [m]; 0 = unknown (config formats[].height_mm, optional)
 };
 
 /// A box top face placed in the layer plane.

@@ -26,6 +26,7 @@ struct Truth {
   Plane layer_plane;
   std::vector<std::string> recipe;            ///< format names
   std::vector<std::array<int, 2>> recipe_mm;  ///< [long, short] per recipe format [mm]
+  std::string expect = "boxes";  ///< what the detector must answer: boxes, empty, slip_sheet
 };
 
 }  // namespace palletd

@@ -39,8 +39,20 @@ struct RegionOfInterest {
   }
 };
 
+/// The pallet the load stands on (config `pallet`).
+struct PalletParams {
+  /// Height of the empty pallet's top deck in the base frame [m]; null = unknown. With the
+  /// frame's camera_to_base it gives the layer's height above the pallet, the layers left (with
+  /// the formats' heights), and `empty` when the top level is the pallet itself.
+  std::optional<double> top_z_m;
+  /// A layer height off a whole number of box heights by more than this share of a box height
+  /// flags the result (a missing or extra layer, a wrong recipe).
+  double height_tolerance = 0.2;
+};
+
 struct DetectionParams {
   std::optional<RegionOfInterest> roi;  ///< null: the whole view
+  PalletParams pallet;
   PlaneParams plane;
   LayerParams layer;
   ContourParams contour;
@@ -80,6 +92,17 @@ struct Detection {
   /// range, a dark or shiny surface): the outline there is where the depth ends; `message`
   /// says so even when status is ok.
   bool outline_unobserved = false;
+  /// Interior box sides of the layout and how much of them shows a seam (slip-sheet evidence).
+  InteriorSeams interior_seams;
+  /// Why `ambiguous` is set: which alternatives tie and on what evidence; empty when not.
+  std::string ambiguity_reason;
+  /// The top layer's height above the pallet's top (PalletParams::top_z_m and camera_to_base) [m].
+  std::optional<double> height_above_pallet_m;
+  /// Layers on the pallet counting the top one: the height above the pallet in box heights (the
+  /// heights of the boxes found, formats[].height_m); null when a height is unknown.
+  std::optional<int> layers_remaining;
+  /// The height above the pallet is not a whole number of box heights (ambiguous is set too).
+  bool height_off_layers = false;
   std::vector<DetectedBox> boxes;
   LayerResult layer;  ///< the first half's result, for overlays and diagnostics
 };

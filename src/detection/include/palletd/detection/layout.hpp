@@ -205,6 +205,15 @@ struct RimPixel {
 std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                                       double min_drop_m = 0.05);
 
+/// Interior box sides of a layout (sides with a neighbour's top just beyond them, corners left
+/// out) and the part of them where the seam raster shows a seam (> 0.5 from just inside the box
+/// to the neighbour) or the layer's outline a gap. Each shared side counts from both boxes [m].
+struct InteriorSeams {
+  double length_m = 0.0;
+  double seen_m = 0.0;
+  [[nodiscard]] double seen_share() const { return length_m > 0.0 ? seen_m / length_m : 0.0; }
+};
+
 /// One box of a layout: where it lies (layer frame) and how well the measurements support it.
 struct LayoutBox : Box2d {
   double score = 0.0;          ///< 0..1
@@ -225,10 +234,19 @@ struct LayoutResult {
   std::vector<Box2d> runner_up;      ///< that layout (diagnostics), empty if none
   /// Boxes completed across outline edges where the depth ends (LayoutParams::unseen_min_fraction).
   std::size_t completed_unseen = 0;
+  InteriorSeams interior_seams;  ///< of the boxes returned (solve_layout)
+  double pixel_pitch_m = 0.0;    ///< the layer's pixel pitch (solve_layout) [m]
+  /// Mixed pixels on the layer's rim per pixel pitch of outline (build_layer_rim; solve_layout):
+  /// a ToF camera mixes the top and the surface beyond along most of a stepped edge and shows
+  /// sub-pixel seams the same way; stereo, structured light and flying-pixel filters show none.
+  double rim_share = 0.0;
   std::size_t hypotheses_visited = 0;
   std::size_t search_expansions = 0;  ///< best-first search: node expansions used (the budget's unit)
   double search_ms = 0.0;
 };
+
+InteriorSeams measure_interior_seams(const std::vector<LayoutBox>& boxes, const SeamEvidence& seams,
+                                     const std::vector<PolygonWithHoles>& polygons);
 
 /// Why a recipe's formats cannot be searched, or "" when they can: none given, a zero, negative
 /// or invalid size, the short side listed first.

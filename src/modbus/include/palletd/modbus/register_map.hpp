@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace palletd::modbus {
@@ -54,6 +55,13 @@ inline constexpr std::uint16_t kRegDroppedFrames = 122;     ///< 122-123
 inline constexpr std::uint16_t kRegCameraLosses = 124;      ///< 124-125
 inline constexpr std::uint16_t kRegCameraRestarts = 126;    ///< 126-127
 inline constexpr std::uint16_t kRegResentPackets = 128;     ///< 128-129
+// result extension 130..139: written with each result (same image update), cleared with it
+inline constexpr std::uint16_t kResultExtStart = 130;
+inline constexpr std::uint16_t kResultExtCount = 10;        ///< 130..139 (135..139 reserved, read 0)
+inline constexpr std::uint16_t kRegResultDetail = 130;      ///< ResultDetail
+inline constexpr std::uint16_t kRegLayerInfoFlags = 131;    ///< kLayer* bits: which of 132..134 are known
+inline constexpr std::uint16_t kRegHeightAbovePallet = 132; ///< 132-133, int32 0.1 mm
+inline constexpr std::uint16_t kRegLayersRemaining = 134;
 // result block
 inline constexpr std::uint16_t kRegResultId = 200;
 inline constexpr std::uint16_t kRegResultRequestId = 201;
@@ -89,6 +97,11 @@ inline constexpr std::uint16_t kResBudgetExhausted = 1u << 1;
 inline constexpr std::uint16_t kResLayerClipped = 1u << 2;
 /// Part of the layer's outline runs along pixels without depth: the layer may go on unseen there.
 inline constexpr std::uint16_t kResOutlineUnobserved = 1u << 3;
+/// The layer's height above the pallet is not a whole number of box heights (bit0 is set too).
+inline constexpr std::uint16_t kResHeightOffLayers = 1u << 4;
+// layer info flags (register 131)
+inline constexpr std::uint16_t kLayerHeightKnown = 1u << 0;
+inline constexpr std::uint16_t kLayersRemainingKnown = 1u << 1;
 
 /// Error codes in register 101 (the detail in 102 depends on the code).
 enum class ErrorCode : std::uint16_t {
@@ -109,6 +122,14 @@ enum class DetectionFailure : std::uint16_t {
   kNoLayer = 2,
   kNoLayout = 3,
   kBadFrame = 4,
+};
+
+/// Why a result has no boxes though nothing failed (register 130, and 102 while 101 = 0);
+/// numbered after DetectionFailure's codes so that 102 has one meaning per value.
+enum class ResultDetail : std::uint16_t {
+  kNone = 0,
+  kEmpty = 5,      ///< the empty pallet, or nothing stands inside the region of interest
+  kSlipSheet = 6,  ///< a sheet covers the layer: remove it before the next trigger
 };
 
 /// Result status in register 202.
@@ -143,6 +164,10 @@ struct ResultRecord {
   bool budget_exhausted = false;
   bool layer_clipped = false;
   bool outline_unobserved = false;  ///< the layer may go on where the depth ends
+  bool height_off_layers = false;   ///< height above the pallet is no whole number of box heights
+  ResultDetail detail = ResultDetail::kNone;          ///< why no boxes (status kNoBoxes)
+  std::optional<double> height_above_pallet_m;       ///< [m], when the pallet's height is configured
+  std::optional<int> layers_remaining;                ///< counting the top layer
   double layer_z_m = 0.0;       ///< layer height [m]
   double coverage = 0.0;        ///< 0..1
   double processing_ms = 0.0;   ///< detection wall time [ms] (register 113)
@@ -208,10 +233,11 @@ std::int32_t get_i32(const std::uint16_t* src, WordOrder order);
 // ---- blocks ----
 /// Writes registers 100..129.
 void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& image);
-/// Writes registers 200..530 with `result_id` in 200 and 530; unused box slots are zeroed.
+/// Writes registers 200..530 with `result_id` in 200 and 530 (unused box slots zeroed) and the
+/// result extension 130..139.
 void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
                    RegisterImage& image);
-/// Clears registers 200..530 (no result yet).
+/// Clears registers 200..530 and 130..139 (no result yet).
 void clear_result(RegisterImage& image);
 
 ControlRecord decode_control(const RegisterImage& image);

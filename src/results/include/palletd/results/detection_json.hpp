@@ -45,6 +45,9 @@ struct ParsedDetection {
   double area_m2 = 0.0;
   double coverage = 0.0;
   bool ambiguous = false;
+  std::string ambiguity_reason;
+  std::optional<double> height_above_pallet_m;
+  std::optional<int> layers_remaining;
   std::vector<ParsedBox> boxes;
 };
 

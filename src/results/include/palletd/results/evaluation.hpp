@@ -18,13 +18,18 @@ struct EvalOptions {
 struct FrameEval {
   std::string frame;
   std::string status;         ///< the detection's status word
+  std::string expect = "boxes";  ///< what the truth asks for: boxes, empty, slip_sheet (Truth::expect)
   bool ambiguous = false;
   std::size_t truth_boxes = 0, detected_boxes = 0, matched = 0;
   std::vector<double> position_errors_mm;  ///< per matched pair
   std::vector<double> yaw_errors_deg;      ///< per matched pair, mod 180
   double pairwise_error_mm = 0.0;  ///< mean |d_ij(detected) - d_ij(truth)| over matched pairs (the paper's metric)
   bool formats_right = true;
-  bool exact = false;         ///< no miss, no extra, all within tolerance, right formats
+  /// Boxes: no miss, no extra, all within tolerance, right formats. Empty or slip_sheet: the
+  /// status says so.
+  bool exact = false;
+  /// Not exact, yet an ok status not flagged ambiguous: a wrong answer the PLC would act on.
+  bool unflagged_wrong = false;
   double runtime_ms = 0.0;
   /// Whether the truth's own outline determines its layout: 0 = yes (unambiguous: the
   /// detection must be exact), 1 = no (another layout fits the outline as well: exact or
@@ -52,6 +57,9 @@ struct EvalSummary {
   std::size_t unambiguous_frames = 0, unambiguous_exact = 0, unambiguous_flagged = 0;
   std::size_t tied_frames = 0, tied_resolved = 0, tied_flagged = 0, tied_wrong = 0;
   double unambiguous_exact_rate = 0.0;
+  std::size_t unflagged_wrong = 0;  ///< FrameEval::unflagged_wrong
+  /// Frames whose truth expects `empty` or `slip_sheet`, and how many were answered so.
+  std::size_t empty_frames = 0, empty_right = 0, sheet_frames = 0, sheet_right = 0;
 };
 
 EvalSummary summarize(const std::vector<FrameEval>& frames);

@@ -22,7 +22,12 @@ enum class PalletKind { kNone, kEur1200x800, kIndustrial1200x1000 };
 enum class PatternFamily { kBlock, kInterlock, kBrick, kPinwheel, kChimney, kMixed };
 /// How a depalletizer emptied the top layer (used when fill < 1).
 enum class RemovalMode { kRows, kColumns, kCorner, kRandom, kHoles, kClusters };
-enum class SensorKind { kTimeOfFlight, kStructuredLight };
+enum class SensorKind { kTimeOfFlight, kStructuredLight, kActiveStereo };
+/// What stands on the pallet and around it (docs/simulator.md, "Scene families").
+/// kIsolated: a pallet with its layers alone on the floor; kCell: the same inside a cell
+/// (cabinet, posts, conveyor, a second stack); kStepped: one to three boxes left on a full level;
+/// kEmpty: the bare pallet; kSlipSheet: a cardboard sheet covering a full level.
+enum class SceneFamily { kIsolated, kCell, kStepped, kEmpty, kSlipSheet };
 
 /// A box format: top face long x short side and height [m]; name like "315x232".
 struct BoxFormatSpec {
@@ -52,6 +57,7 @@ struct SimBox {
   double top_z_m = 0.0;       ///< height of the top face's rim [m]
   double bulge_m = 0.0;       ///< top face centre above (+) or below (-) the rim [m]
   double bevel_m = 0.0;       ///< radius of the rounded top edge [m]
+  double corner_radius_m = 0.0;  ///< radius of the rounded vertical corners, in plan [m]
   double reflectance = 0.5;
   std::vector<SurfacePatch> patches;
   std::string format;         ///< format name; empty for pallet parts
@@ -80,6 +86,14 @@ struct ScenarioOptions {
   double layer_offset_max_m = 0.02; ///< whole layer shift on the pallet
   double tape_probability = 0.7;
   double label_probability = 0.5;
+  double oversize_max = 0.0;  ///< built boxes exceed nominal by a share drawn in [max/5, max] per layer
+  double corner_radius_min_m = 0.0, corner_radius_max_m = 0.0;  ///< vertical corners, drawn per box
+  // Scene family and cell.
+  SceneFamily scene = SceneFamily::kIsolated;
+  bool cell = false;             ///< cell surroundings for any family (kCell implies them)
+  bool solid_deck = false;       ///< the pallet's deck as one slab (sets made before issue 19)
+  int stepped_min = 1, stepped_max = 3;  ///< boxes left on top in a stepped scene
+  double cell_tilt_min_deg = 3.0, cell_tilt_max_deg = 20.0;  ///< camera tilt in a cell
   // Camera.
   double height_min_m = 1.2, height_max_m = 3.0;  ///< camera above the top layer
   double tilt_max_deg = 30.0;
@@ -94,7 +108,12 @@ struct Scene {
   double floor_reflectance = 0.25;
   std::vector<SimBox> boxes;            ///< pallet parts, lower layers and the top layer
   std::vector<std::size_t> top_layer;   ///< indices into boxes of the top layer's boxes
-  double top_z_m = 0.0;                 ///< nominal top layer plane height [m]
+  double top_z_m = 0.0;                 ///< nominal top layer plane height [m] (deck or sheet when no boxes)
+  std::vector<std::size_t> surroundings;  ///< indices of the cell's parts; the first is the cabinet
+  SceneFamily family = SceneFamily::kIsolated;
+  std::string expect = "boxes";         ///< what a detector must answer: boxes, empty, slip_sheet
+  bool has_roi = false;                 ///< a suggested region of interest exists (cell scenes)
+  Eigen::Vector3d roi_min_m = Eigen::Vector3d::Zero(), roi_max_m = Eigen::Vector3d::Zero();  ///< world
   std::vector<BoxFormatSpec> recipe;    ///< formats of the cell's recipe
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
   std::string description;              ///< e.g. "pinwheel 315x232 fill 0.60 rows"
@@ -117,6 +136,10 @@ struct SensorProfile {
   double sl_sigma_a_m = 0.0012, sl_sigma_b_per_m = 0.0019, sl_z0_m = 0.4;
   double sl_baseline_m = 0.075;          ///< camera -> projector along camera x [m]
   double sl_disparity_step_px = 0.125;   ///< sub-pixel disparity resolution [px]
+  // Active stereo: sigma_z = z^2 sigma_d / (fx b) with b = sl_baseline_m (second imager along x);
+  // each pixel takes the depth of a nearer neighbour within 1..stereo_fattening_px (matching window).
+  double stereo_sigma_px = 0.016;
+  int stereo_fattening_px = 2;
   // Both.
   double invalid_min = 0.01, invalid_max = 0.03;  ///< random dropout share, drawn per frame
   double min_amplitude_rel = 0.03;  ///< amplitude below this share of the reference -> invalid
@@ -126,7 +149,7 @@ struct SensorProfile {
   double intensity_noise_rel = 0.02;
 };
 
-/// Built-in profiles: "o3d303", "o3d303-small", "blaze101", "helios2", "xtion".
+/// Built-in profiles: "o3d303", "o3d303-small", "blaze101", "helios2", "xtion", "d435".
 std::vector<std::string> profile_names();
 Expected<SensorProfile> profile_by_name(const std::string& name);
 
@@ -136,6 +159,8 @@ double tof_sigma_m(const SensorProfile& profile, double range_m, double reflecta
 double sl_sigma_m(const SensorProfile& profile, double z_m);
 /// Depth step [m] of the disparity quantisation of a structured-light profile at depth z [m].
 double sl_quantum_m(const SensorProfile& profile, double z_m);
+/// Active-stereo depth noise [m] at depth z [m]: z^2 stereo_sigma_px / (fx baseline).
+double stereo_sigma_m(const SensorProfile& profile, double z_m);
 
 /// Builds a scene; the camera is placed for `profile` (top layer in view unless asked otherwise).
 /// Fails when no box of the format fits the pallet.
@@ -174,6 +199,7 @@ struct SetOptions {
   std::vector<PatternFamily> patterns;  ///< empty: all families
   std::vector<std::string> profiles;    ///< empty: "o3d303"
   std::vector<RemovalMode> removals;    ///< empty: all modes
+  std::vector<SceneFamily> scenes;      ///< cycled; empty: scenario.scene for every frame
   double fill_min = 1.0, fill_max = 1.0;
   RenderOptions render;
 };
@@ -184,9 +210,15 @@ std::uint64_t frame_seed(std::uint64_t seed, std::uint64_t index);
 std::string to_string(PatternFamily pattern);
 std::string to_string(RemovalMode mode);
 std::string to_string(PalletKind pallet);
+std::string to_string(SceneFamily family);
+Expected<SceneFamily> parse_scene(const std::string& text);
 Expected<PatternFamily> parse_pattern(const std::string& text);
 Expected<RemovalMode> parse_removal(const std::string& text);
 Expected<PalletKind> parse_pallet(const std::string& text);
+
+/// The scene's suggested region of interest as a config snippet (detection.roi, base frame);
+/// empty when the scene has none.
+std::string roi_yaml(const Scene& scene);
 
 /// Pixel of a camera-frame point (no distortion); false when behind the camera.
 bool project(const Intrinsics& intrinsics, const Eigen::Vector3d& p_camera, Eigen::Vector2d& pixel);

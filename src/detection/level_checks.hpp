@@ -1,0 +1,57 @@
+// Stages around the layout: what the top level is before boxes are looked for (the empty pallet,
+// nothing inside the region of interest), whether the boxes found are a slip sheet, and the
+// layer's height above the pallet.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "palletd/detection/detection.hpp"
+
+namespace palletd {
+
+/// A verdict on the top level that ends the frame without boxes (kEmpty, kSlipSheet) or flags it.
+struct LevelVerdict {
+  DetectionStatus status = DetectionStatus::kOk;
+  std::string message;
+};
+
+/// The top level's height in the base frame at the centre of the layer's area [m]; null
+/// without camera_to_base.
+std::optional<double> layer_base_z_m(const LayerResult& layer, const std::optional<Eigen::Isometry3d>& T_base_camera);
+
+/// kEmpty when the top level found is no level of boxes: it lies below the region of interest,
+/// it is the pallet's deck (PalletParams::top_z_m), or without a pallet height its pieces are
+/// parallel strips narrower than any box (deck boards) and nothing else stands above them.
+std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& layer,
+                                        const std::vector<BoxFormat>& formats, const DetectionParams& params);
+
+/// After a layout failed: the top level stands less than 0.2 m above the lowest large level in
+/// view (the floor, at least a tenth of the sampled points), lower than any carton layer on a
+/// pallet, so it is an empty pallet's deck (kEmpty).
+std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const LayerResult& layer,
+                                             const PlaneParams& validity);
+
+/// A layout whose interior box sides show no seam anywhere while the layer is one rectangle: a
+/// sheet covers the layer (kSlipSheet) where the sensor resolves seams; where it cannot, the
+/// result is flagged (kOk with a message for ambiguity_reason).
+std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,
+                                       const std::vector<BoxFormat>& formats);
+
+/// A box of the layout lies over a slot in the layer (a hole four times longer than wide under
+/// more than 3 % of its top): flagged (kOk with the sentence); the gaps of a pallet's deck look so.
+std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);
+
+/// After the layout: deck_above_floor when the layout failed, is flagged or covers a slot; the
+/// slot's flag; else slip_sheet.
+std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
+                                               const LayerResult& layer, const std::vector<BoxFormat>& formats,
+                                               const PlaneParams& validity);
+
+/// Fills height_above_pallet_m and layers_remaining; flags the result (ambiguous, with a reason)
+/// when the height is not a whole number of box heights.
+void layer_height(const std::optional<double>& layer_z_m, const std::vector<BoxFormat>& formats,
+                  const PalletParams& pallet, Detection& out);
+
+}  // namespace palletd
