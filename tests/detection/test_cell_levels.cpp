@@ -135,3 +135,85 @@ TEST_CASE("a stepped pallet: only the cartons on top", "[cell][stepped]") {
     CHECK(d.boxes.size() == f.truth.boxes.size());
   }
 }
+
+namespace {
+
+sim::SimBox carton(const Eigen::Vector2d& center_m, double long_m, double short_m, double bottom_m, double top_m,
+                   int format_index, const std::string& name) {
+  sim::SimBox b;
+  b.center = center_m;
+  b.long_m = long_m;
+  b.short_m = short_m;
+  b.bottom_z_m = bottom_m;
+  b.top_z_m = top_m;
+  b.bevel_m = 0.004;
+  b.bulge_m = 0.002;
+  b.reflectance = 0.5;
+  b.format_index = format_index;
+  b.format = name;
+  return b;
+}
+
+/// Camera at `position` looking at `target`, image x along the world's x (world: z up).
+Eigen::Isometry3d look_at(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d f = (target - position).normalized();
+  const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - f.x() * f).normalized();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear().col(0) = x;
+  T.linear().col(1) = f.cross(x);
+  T.linear().col(2) = f;
+  T.translation() = position;
+  return T;
+}
+
+}  // namespace
+
+TEST_CASE("a real cell: one carton on a level of six, a cabinet above the load, a tilted stereo camera",
+          "[cell][stepped]") {
+  // The bare pallet, then two levels of 265 x 170 x 100 cartons (4 x 4, then 3 x 2), one
+  // 354 x 271 carton on top, and a cabinet beside the pallet 0.45 m higher than the load.
+  const sim::SensorProfile profile = *sim::profile_by_name("d435");
+  sim::ScenarioOptions options;
+  options.scene = sim::SceneFamily::kEmpty;
+  sim::Scene scene = *sim::make_scene(options, profile, 17);
+  const double deck_m = kPalletTop_m;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j)
+      scene.boxes.push_back(carton({-0.4 + 0.267 * i, -0.26 + 0.172 * j}, 0.265, 0.170, deck_m, deck_m + 0.1, 1, "265x170"));
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 2; ++j)
+      scene.boxes.push_back(carton({-0.27 + 0.267 * i, -0.09 + 0.172 * j}, 0.265, 0.170, deck_m + 0.1, deck_m + 0.2, 1, "265x170"));
+  const Eigen::Vector2d top_centre(-0.1, 0.0);
+  scene.boxes.push_back(carton(top_centre, 0.354, 0.271, deck_m + 0.2, deck_m + 0.3, 0, "354x271"));
+  scene.top_layer = {scene.boxes.size() - 1};
+  scene.top_z_m = deck_m + 0.3;
+  scene.expect = "boxes";
+  sim::SimBox cabinet = carton({0.1, 0.75}, 0.8, 0.5, 0.0, scene.top_z_m + 0.45, -1, "");
+  scene.boxes.push_back(cabinet);
+  scene.recipe = {{"354x271", 0.354, 0.271, 0.1}, {"265x170", 0.265, 0.170, 0.1}};
+  // 1.5 m above the load, tilted 6 deg (towards the cabinet, which fills the image's far part).
+  scene.T_world_camera = look_at(Eigen::Vector3d(0.0, -0.16, scene.top_z_m + 1.5), Eigen::Vector3d(0.0, 0.0, scene.top_z_m));
+  const sim::SimulatedFrame f = sim::render(scene, profile, 17);
+  REQUIRE(f.truth.boxes.size() == 1);
+  const std::vector<BoxFormat> formats = {{0.354, 0.271, "354x271"}, {0.265, 0.170, "265x170"}};
+
+  DetectionParams params;
+  const Detection whole_view = detect(f.frame, formats, params);
+  CAPTURE(to_string(whole_view.status), whole_view.message);
+  CHECK_FALSE((whole_view.status == DetectionStatus::kOk && !whole_view.ambiguous &&
+               whole_view.boxes.size() == 1));  // the cabinet's top is the highest level in view
+
+  RegionOfInterest roi;
+  roi.frame = RegionOfInterest::Frame::kBase;
+  roi.min_m = Eigen::Vector3d(-0.7, -0.5, deck_m - 0.05);
+  roi.max_m = Eigen::Vector3d(0.7, 0.5, scene.top_z_m + 0.3);
+  params.roi = roi;
+  const Detection d = detect(f.frame, formats, params);
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
+  REQUIRE(d.status == DetectionStatus::kOk);
+  REQUIRE(d.boxes.size() == 1);
+  CHECK(d.boxes[0].format == 0);
+  CHECK((d.boxes[0].center - f.truth.boxes[0].center).norm() < 0.015);
+  REQUIRE(d.boxes[0].base_position);
+  CHECK((d.boxes[0].base_position->head<2>() - top_centre).norm() < 0.015);
+}
