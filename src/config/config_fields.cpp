@@ -82,6 +82,8 @@ const Table<LayoutParams>& layout_table() {
       within(&L::refine,
              number("refine_size_tolerance_m", &RefineParams::size_tolerance_m, Range::closed(0.0, 0.1))),
       within(&L::refine,
+             number("refine_max_oversize", &RefineParams::max_oversize, Range::closed(0.0, 0.2))),
+      within(&L::refine,
              number("refine_yaw_sigma_deg", &RefineParams::yaw_sigma_deg, Range::closed(0.0, 10.0))),
       within(&L::completion,
              number("unseen_min_fraction", &CompletionParams::unseen_min_fraction, Range::closed(0.0, 1.0))),

@@ -354,6 +354,7 @@ ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWit
   JointParams jp;
   jp.size_tolerance_m = ctx.params.refine.size_tolerance_m;
   jp.size_sigma_m = ctx.params.refine.size_tolerance_m / 2;
+  jp.max_oversize = ctx.params.refine.max_oversize;
   solve_joint(fitted, sides, contacts, jp, neighbours);
   const std::vector<double> own_turn = component_turns(turns, n, w_prior, cf);
   for (std::size_t k = 0; k < n; ++k) {

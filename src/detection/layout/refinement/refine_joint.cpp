@@ -11,6 +11,12 @@ namespace palletd::layout_detail {
 
 namespace {
 
+/// The largest half side a fit may give: nominal + the tolerance, or the oversize share of it.
+double half_upper(double half_nominal_m, const JointParams& params) {
+  return half_nominal_m + std::max(0.5 * params.size_tolerance_m, params.max_oversize * half_nominal_m);
+}
+
+
 double median_of(std::vector<double> v) {
   if (v.empty()) return 0.0;
   const auto mid = v.begin() + static_cast<long>(v.size() / 2);
@@ -119,6 +125,28 @@ namespace {
 /// How closely a pair of overlapping neighbours is made to touch [m].
 constexpr double kSolid_m = 1e-4;
 
+/// Cartons of one format on a layer come from one batch: their sizes along an axis are tied
+/// (h_i - h_j = 0 +- batch_sigma_m per pair of the same nominal half size), so a box whose far
+/// side is not seen (a seam pressed shut) takes the size its measured siblings show rather than
+/// the nominal one: cartons run 1-5 % over their format, all of them alike.
+void add_batch_ties(const std::vector<JointBox>& boxes, int axis, const JointParams& params, Eigen::MatrixXd& A) {
+  if (!(params.batch_sigma_m > 0.0)) return;
+  const auto n = static_cast<Eigen::Index>(boxes.size());
+  const double half_sigma = 0.5 * params.batch_sigma_m;
+  const double w = 1.0 / (half_sigma * half_sigma);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = i + 1; j < n; ++j) {
+      const double hi = boxes[static_cast<std::size_t>(i)].half_nominal[axis];
+      const double hj = boxes[static_cast<std::size_t>(j)].half_nominal[axis];
+      if (std::abs(hi - hj) > 1e-6) continue;
+      A(n + i, n + i) += w;
+      A(n + j, n + j) += w;
+      A(n + i, n + j) -= w;
+      A(n + j, n + i) -= w;
+    }
+  }
+}
+
 /// One axis of the joint fit: unknowns c_0..c_{n-1}, h_0..h_{n-1} (centre and half size).
 void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
                 const std::vector<Contact>& contacts, const std::vector<Contact>& neighbours,
@@ -129,8 +157,12 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
   std::vector<bool> held(boxes.size(), false);
   std::vector<double> held_half(boxes.size(), 0.0);
   const double c_anchor = 1.0 / (params.anchor_sigma_m * params.anchor_sigma_m);
-  const double half_sigma = 0.5 * params.size_sigma_m;
-  const double c_size = 1.0 / (half_sigma * half_sigma);
+  // The prior on a side length around nominal: size_sigma_m, or wider for long sides, which run
+  // up to max_oversize over their format (half the oversize as one sigma).
+  auto c_size_of = [&](double half_nominal_m) {
+    const double half_sigma = std::max(0.5 * params.size_sigma_m, 0.5 * params.max_oversize * half_nominal_m);
+    return 1.0 / (half_sigma * half_sigma);
+  };
   const double c_held = 1e12;
   std::vector<bool> pressed(neighbours.size(), false);  // overlapping neighbours made to touch
   std::vector<double> c0(boxes.size());
@@ -143,7 +175,7 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
       const auto ui = static_cast<std::size_t>(i);
       A(i, i) += c_anchor;
       rhs(i) += c_anchor * c0[ui];
-      const double hw = held[ui] ? c_held : c_size;
+      const double hw = held[ui] ? c_held : c_size_of(boxes[ui].half_nominal[axis]);
       const double hv = held[ui] ? held_half[ui] : boxes[ui].half_nominal[axis];
       A(n + i, n + i) += hw;
       rhs(n + i) += hw * hv;
@@ -173,6 +205,7 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
     for (std::size_t k = 0; k < neighbours.size(); ++k) {
       if (pressed[k]) add_contact(neighbours[k], kSolid_m);
     }
+    add_batch_ties(boxes, axis, params, A);
     x = A.ldlt().solve(rhs);
     if (!x.allFinite()) return;
     // Huber weights on the side observations (a wrong seam must not drag a whole row).
@@ -200,7 +233,7 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
     for (Eigen::Index i = 0; i < n; ++i) {
       const auto ui = static_cast<std::size_t>(i);
       const double nom = boxes[ui].half_nominal[axis];
-      const double lo = nom - 0.5 * params.size_tolerance_m, hi = nom + 0.5 * params.size_tolerance_m;
+      const double lo = nom - 0.5 * params.size_tolerance_m, hi = half_upper(nom, params);
       if (!held[ui] && (x(n + i) < lo || x(n + i) > hi)) {
         held[ui] = true;
         held_half[ui] = std::clamp(x(n + i), lo, hi);
@@ -213,7 +246,7 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
     const auto ui = static_cast<std::size_t>(i);
     boxes[ui].center[axis] = x(i);
     const double nom = boxes[ui].half_nominal[axis];
-    boxes[ui].half[axis] = std::clamp(x(n + i), nom - 0.5 * params.size_tolerance_m, nom + 0.5 * params.size_tolerance_m);
+    boxes[ui].half[axis] = std::clamp(x(n + i), nom - 0.5 * params.size_tolerance_m, half_upper(nom, params));
   }
 }
 

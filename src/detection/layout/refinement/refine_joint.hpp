@@ -77,7 +77,11 @@ double seam_footprint_correction(double view_slope, double pitch_m, double drop_
 
 struct JointParams {
   double size_sigma_m = 0.005;      ///< prior spread of a real side length around nominal [m]
-  double size_tolerance_m = 0.010;  ///< a side length stays within nominal +- this [m]
+  double size_tolerance_m = 0.010;  ///< a side length stays within nominal +- this [m] ...
+  /// ... or grows up to this share over nominal: real cartons are built 1-5 % over their format.
+  double max_oversize = 0.06;
+  /// Spread of side lengths between cartons of one format on a layer (one batch) [m]; 0 = untied.
+  double batch_sigma_m = 0.004;
   double anchor_sigma_m = 0.05;     ///< weak prior keeping an unmeasured box where it was [m]
 };
 

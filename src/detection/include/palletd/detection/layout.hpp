@@ -106,7 +106,10 @@ struct SeamParams {
 /// The millimetre fit of the found boxes (src/detection/layout/refinement/).
 struct RefineParams {
   bool enabled = true;               ///< solve_layout: run refine_layout
-  double size_tolerance_m = 0.010;   ///< refined sizes stay within nominal +/- this [m]
+  double size_tolerance_m = 0.010;   ///< refined sizes stay within nominal +/- this [m] ...
+  /// ... or grow up to this share over nominal (real cartons are built 1-5 % over their format;
+  /// smaller than nominal stays bounded by size_tolerance_m, so a smaller format is not fitted).
+  double max_oversize = 0.06;
   /// Prior spread of a box's own turn against the rest of its layer, and of a separate
   /// component's against the layer's orientation [deg]; 0 turns all boxes of a layer together.
   double yaw_sigma_deg = 0.5;
