@@ -69,7 +69,8 @@ Eigen::Vector2d layer_centroid(const LayerResult& layer) {
 cv::RotatedRect min_area_rect(const Ring2d& ring) {
   std::vector<cv::Point2f> pts;
   pts.reserve(ring.size());
-  for (const Eigen::Vector2d& v : ring) pts.emplace_back(static_cast<float>(v.x() * 1000.0), static_cast<float>(v.y() * 1000.0));
+  for (const Eigen::Vector2d& v : ring)
+    pts.emplace_back(static_cast<float>(v.x() * 1000.0), static_cast<float>(v.y() * 1000.0));
   return cv::minAreaRect(pts);  // [mm]
 }
 
@@ -110,7 +111,8 @@ bool deck_boards(const LayerResult& layer, const std::vector<BoxFormat>& formats
 
 }  // namespace
 
-std::optional<double> layer_base_z_m(const LayerResult& layer, const std::optional<Eigen::Isometry3d>& T_base_camera) {
+std::optional<double> layer_base_z_m(const LayerResult& layer,
+                                     const std::optional<Eigen::Isometry3d>& T_base_camera) {
   if (!T_base_camera || layer.polygons.empty()) return std::nullopt;
   const Eigen::Vector2d c = layer_centroid(layer);
   const Eigen::Vector3d p_camera = layer.T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0);
@@ -118,11 +120,13 @@ std::optional<double> layer_base_z_m(const LayerResult& layer, const std::option
 }
 
 std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& layer,
-                                        const std::vector<BoxFormat>& formats, const DetectionParams& params) {
+                                        const std::vector<BoxFormat>& formats,
+                                        const DetectionParams& params) {
   const std::optional<double> z_m = layer_base_z_m(layer, frame.T_base_camera);
   if (params.roi) {
     const RegionOfInterest& roi = *params.roi;
-    const Eigen::Vector3d centre_camera = layer.T_camera_layer * Eigen::Vector3d(layer_centroid(layer).x(), layer_centroid(layer).y(), 0.0);
+    const Eigen::Vector3d centre_camera =
+        layer.T_camera_layer * Eigen::Vector3d(layer_centroid(layer).x(), layer_centroid(layer).y(), 0.0);
     const bool below = roi.frame == RegionOfInterest::Frame::kBase ? (z_m && *z_m < roi.min_m.z())
                                                                    : centre_camera.z() > roi.max_m.z();
     if (below)
@@ -134,13 +138,14 @@ std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& l
     const double band = h_box > 0.0 ? kDeckBandBoxes * h_box : kDeckBand_m;
     const double above = *z_m - *params.pallet.top_z_m;
     if (above < band)
-      return LevelVerdict{DetectionStatus::kEmpty, "the top level is the pallet's deck (" + mm(above) +
-                                                       " above pallet.top_z_m)"};
+      return LevelVerdict{DetectionStatus::kEmpty,
+                          "the top level is the pallet's deck (" + mm(above) + " above pallet.top_z_m)"};
     return std::nullopt;  // the pallet's height decides
   }
   if (deck_boards(layer, formats))
-    return LevelVerdict{DetectionStatus::kEmpty, "the top level is " + std::to_string(layer.polygons.size()) +
-                                                     " parallel strips narrower than any box (a pallet's deck boards)"};
+    return LevelVerdict{DetectionStatus::kEmpty,
+                        "the top level is " + std::to_string(layer.polygons.size()) +
+                            " parallel strips narrower than any box (a pallet's deck boards)"};
   return std::nullopt;
 }
 
@@ -163,12 +168,14 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   if (resolves_seams) {
     return LevelVerdict{DetectionStatus::kSlipSheet,
                         "a sheet covers the layer: one flat rectangle, seams seen along " + share.str() +
-                            " of the box sides where the boxes would meet (pixel pitch " + mm(layout.pixel_pitch_m) + ")"};
+                            " of the box sides where the boxes would meet (pixel pitch " +
+                            mm(layout.pixel_pitch_m) + ")"};
   }
-  const std::string why = layout.pixel_pitch_m > kResolvableSeam_m
-                              ? "at a pixel pitch of " + mm(layout.pixel_pitch_m) + " the seams cannot be resolved"
-                              : "this camera shows no mixed pixels at edges (stereo, structured light or a flying-pixel "
-                                "filter), so seams narrower than its matching window are smoothed away";
+  const std::string why =
+      layout.pixel_pitch_m > kResolvableSeam_m
+          ? "at a pixel pitch of " + mm(layout.pixel_pitch_m) + " the seams cannot be resolved"
+          : "this camera shows no mixed pixels at edges (stereo, structured light or a flying-pixel "
+            "filter), so seams narrower than its matching window are smoothed away";
   return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
                                                 " of their shared sides) and " + why +
                                                 ": a slip sheet and tightly packed cartons look the same"};
@@ -194,11 +201,13 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
   }
   const auto floor_count = static_cast<int>(kMinFloorShare * static_cast<double>(sampled));
   for (int b = kBins - 2; b >= 0; --b) {
-    if (bins[static_cast<std::size_t>(b)] + bins[static_cast<std::size_t>(b) + 1] < std::max(floor_count, 50)) continue;
+    if (bins[static_cast<std::size_t>(b)] + bins[static_cast<std::size_t>(b) + 1] < std::max(floor_count, 50))
+      continue;
     const double floor_below_m = (b + 1) * kBin_m;  // the floor: the lowest level with enough points
     if (floor_below_m >= kMaxDeckAboveFloor_m) return std::nullopt;
-    return LevelVerdict{DetectionStatus::kEmpty, "the top level stands " + mm(floor_below_m) +
-                                                     " above the floor and no box of the recipe fits it: an empty pallet's deck"};
+    return LevelVerdict{DetectionStatus::kEmpty,
+                        "the top level stands " + mm(floor_below_m) +
+                            " above the floor and no box of the recipe fits it: an empty pallet's deck"};
   }
   return std::nullopt;
 }
@@ -228,8 +237,9 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
         if (hx <= 0.0 || hy <= 0.0) continue;
         const double over = clipped_area(local, -hx, -hy, hx, hy);
         if (over > kMaxSlotShare * b.long_m * b.short_m)
-          return LevelVerdict{DetectionStatus::kOk, "box " + std::to_string(i) + " lies over a slot in the layer (" +
-                                                        mm(l * 1e-3) + " by " + mm(w * 1e-3) +
+          return LevelVerdict{DetectionStatus::kOk, "box " + std::to_string(i) +
+                                                        " lies over a slot in the layer (" + mm(l * 1e-3) +
+                                                        " by " + mm(w * 1e-3) +
                                                         "): no carton top has one (a pallet's deck boards?)"};
       }
     }
@@ -238,7 +248,8 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
 }
 
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
-                                               const LayerResult& layer, const std::vector<BoxFormat>& formats,
+                                               const LayerResult& layer,
+                                               const std::vector<BoxFormat>& formats,
                                                const PlaneParams& validity) {
   // A confident layout stands; a failed or flagged one on a level as low as a pallet's deck is
   // the empty pallet (stereo cameras fill the gaps between its boards, and the deck then looks

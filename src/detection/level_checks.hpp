@@ -19,7 +19,8 @@ struct LevelVerdict {
 
 /// The top level's height in the base frame at the centre of the layer's area [m]; null
 /// without camera_to_base.
-std::optional<double> layer_base_z_m(const LayerResult& layer, const std::optional<Eigen::Isometry3d>& T_base_camera);
+std::optional<double> layer_base_z_m(const LayerResult& layer,
+                                     const std::optional<Eigen::Isometry3d>& T_base_camera);
 
 /// kEmpty when the top level found is no level of boxes: it lies below the region of interest,
 /// it is the pallet's deck (PalletParams::top_z_m), or without a pallet height its pieces are
@@ -46,7 +47,8 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
 /// After the layout: deck_above_floor when the layout failed, is flagged or covers a slot; the
 /// slot's flag; else slip_sheet.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
-                                               const LayerResult& layer, const std::vector<BoxFormat>& formats,
+                                               const LayerResult& layer,
+                                               const std::vector<BoxFormat>& formats,
                                                const PlaneParams& validity);
 
 /// Fills height_above_pallet_m and layers_remaining; flags the result (ambiguous, with a reason)

@@ -12,8 +12,8 @@ namespace {
 
 /// One side of the pallet: outward direction, half extents of the pallet along it and across it.
 struct Side {
-  Eigen::Vector2d out;     ///< unit, outward
-  Eigen::Vector2d along;   ///< unit, along the side
+  Eigen::Vector2d out;        ///< unit, outward
+  Eigen::Vector2d along;      ///< unit, along the side
   double half_out_m = 0.0;    ///< pallet half extent along `out`
   double half_along_m = 0.0;  ///< pallet half extent along `along`
 };
@@ -53,7 +53,8 @@ void add_cabinet(Scene& scene, const Side& side, double load_top_z_m, Rng& rng) 
   const double shift_m = rng.uniform(-0.5, 0.5) * side.half_along_m;
   const double top_m = load_top_z_m + rng.uniform(0.1, 0.5);
   const double rho = rng.uniform(0.2, 0.7);  // painted sheet metal
-  push_part(scene, part(side, side.half_out_m + gap_m + 0.5 * depth_m, shift_m, width_m, depth_m, 0.0, top_m, rho));
+  push_part(scene,
+            part(side, side.half_out_m + gap_m + 0.5 * depth_m, shift_m, width_m, depth_m, 0.0, top_m, rho));
 }
 
 /// Two fence posts (square tubes, 1.3-2.0 m) 0.7-1.0 m from the pallet.
@@ -150,14 +151,15 @@ std::string roi_yaml(const Scene& scene) {
   const Eigen::Vector3d& lo = scene.roi_min_m;
   const Eigen::Vector3d& hi = scene.roi_max_m;
   char text[600];
-  const int n = std::snprintf(text, sizeof text,
-                              "# Suggested region of interest for this simulated cell (world frame = base frame).\n"
-                              "detection:\n"
-                              "  roi:\n"
-                              "    frame: base\n"
-                              "    min_m: [%.3f, %.3f, %.3f]\n"
-                              "    max_m: [%.3f, %.3f, %.3f]\n",
-                              lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z());
+  const int n =
+      std::snprintf(text, sizeof text,
+                    "# Suggested region of interest for this simulated cell (world frame = base frame).\n"
+                    "detection:\n"
+                    "  roi:\n"
+                    "    frame: base\n"
+                    "    min_m: [%.3f, %.3f, %.3f]\n"
+                    "    max_m: [%.3f, %.3f, %.3f]\n",
+                    lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z());
   // The pallet's top deck, as an integrator measures it at commissioning.
   if (scene.pallet != PalletKind::kNone && n > 0 && static_cast<std::size_t>(n) < sizeof text) {
     std::snprintf(text + n, sizeof text - static_cast<std::size_t>(n), "pallet:\n  top_z_m: %.3f\n",

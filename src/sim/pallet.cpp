@@ -65,23 +65,23 @@ void add_pallet(Scene& scene, const Eigen::Vector2d& center, bool solid_deck) {
   const double gap_m = (scene.pallet_short_m - covered_m) / static_cast<double>(widths.size() - 1);
   double y = -hs;
   for (double w : widths) {
-    scene.boxes.push_back(wood(center + Eigen::Vector2d(0.0, y + 0.5 * w), 0.0, scene.pallet_long_m, w, z_deck,
-                               kPalletHeight_m, kWoodReflectance));
+    scene.boxes.push_back(wood(center + Eigen::Vector2d(0.0, y + 0.5 * w), 0.0, scene.pallet_long_m, w,
+                               z_deck, kPalletHeight_m, kWoodReflectance));
     y += w + gap_m;
   }
   // Cross boards and blocks at both ends and in the middle; bottom boards under the block rows.
   const double xs[3] = {-(hl - 0.0725), 0.0, hl - 0.0725};
   const double ys[3] = {-(hs - 0.0725), 0.0, hs - 0.0725};
   for (double x : xs)
-    scene.boxes.push_back(wood(center + Eigen::Vector2d(x, 0.0), 0.5 * kPi, scene.pallet_short_m, 0.145, z_cross,
-                               z_deck, kWoodReflectance));
+    scene.boxes.push_back(wood(center + Eigen::Vector2d(x, 0.0), 0.5 * kPi, scene.pallet_short_m, 0.145,
+                               z_cross, z_deck, kWoodReflectance));
   for (double x : xs)
     for (double yb : ys)
       scene.boxes.push_back(
           wood(center + Eigen::Vector2d(x, yb), 0.0, 0.145, 0.145, z_blocks, z_cross, kBlockReflectance));
   for (double yb : ys)
-    scene.boxes.push_back(wood(center + Eigen::Vector2d(0.0, yb), 0.0, scene.pallet_long_m, yb == 0.0 ? 0.100 : 0.145,
-                               0.0, z_blocks, kWoodReflectance));
+    scene.boxes.push_back(wood(center + Eigen::Vector2d(0.0, yb), 0.0, scene.pallet_long_m,
+                               yb == 0.0 ? 0.100 : 0.145, 0.0, z_blocks, kWoodReflectance));
 }
 
 double add_slip_sheet(Scene& scene, double bottom_z_m, Rng& rng) {

@@ -13,8 +13,9 @@ namespace {
 
 constexpr double kPalletTop_m = 0.144;  // the simulator's pallets (world = base frame)
 
-sim::SimulatedFrame render_family(sim::SceneFamily family, const std::string& profile_name, std::uint64_t seed,
-                                  const std::string& format = "400x300x250", int lower_layers = 1) {
+sim::SimulatedFrame render_family(sim::SceneFamily family, const std::string& profile_name,
+                                  std::uint64_t seed, const std::string& format = "400x300x250",
+                                  int lower_layers = 1) {
   const sim::SensorProfile profile = *sim::profile_by_name(profile_name);
   sim::ScenarioOptions options;
   options.scene = family;
@@ -138,8 +139,8 @@ TEST_CASE("a stepped pallet: only the cartons on top", "[cell][stepped]") {
 
 namespace {
 
-sim::SimBox carton(const Eigen::Vector2d& center_m, double long_m, double short_m, double bottom_m, double top_m,
-                   int format_index, const std::string& name) {
+sim::SimBox carton(const Eigen::Vector2d& center_m, double long_m, double short_m, double bottom_m,
+                   double top_m, int format_index, const std::string& name) {
   sim::SimBox b;
   b.center = center_m;
   b.long_m = long_m;
@@ -179,10 +180,12 @@ TEST_CASE("a real cell: one carton on a level of six, a cabinet above the load, 
   const double deck_m = kPalletTop_m;
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j)
-      scene.boxes.push_back(carton({-0.4 + 0.267 * i, -0.26 + 0.172 * j}, 0.265, 0.170, deck_m, deck_m + 0.1, 1, "265x170"));
+      scene.boxes.push_back(
+          carton({-0.4 + 0.267 * i, -0.26 + 0.172 * j}, 0.265, 0.170, deck_m, deck_m + 0.1, 1, "265x170"));
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 2; ++j)
-      scene.boxes.push_back(carton({-0.27 + 0.267 * i, -0.09 + 0.172 * j}, 0.265, 0.170, deck_m + 0.1, deck_m + 0.2, 1, "265x170"));
+      scene.boxes.push_back(carton({-0.27 + 0.267 * i, -0.09 + 0.172 * j}, 0.265, 0.170, deck_m + 0.1,
+                                   deck_m + 0.2, 1, "265x170"));
   const Eigen::Vector2d top_centre(-0.1, 0.0);
   scene.boxes.push_back(carton(top_centre, 0.354, 0.271, deck_m + 0.2, deck_m + 0.3, 0, "354x271"));
   scene.top_layer = {scene.boxes.size() - 1};
@@ -192,7 +195,8 @@ TEST_CASE("a real cell: one carton on a level of six, a cabinet above the load, 
   scene.boxes.push_back(cabinet);
   scene.recipe = {{"354x271", 0.354, 0.271, 0.1}, {"265x170", 0.265, 0.170, 0.1}};
   // 1.5 m above the load, tilted 6 deg (towards the cabinet, which fills the image's far part).
-  scene.T_world_camera = look_at(Eigen::Vector3d(0.0, -0.16, scene.top_z_m + 1.5), Eigen::Vector3d(0.0, 0.0, scene.top_z_m));
+  scene.T_world_camera =
+      look_at(Eigen::Vector3d(0.0, -0.16, scene.top_z_m + 1.5), Eigen::Vector3d(0.0, 0.0, scene.top_z_m));
   const sim::SimulatedFrame f = sim::render(scene, profile, 17);
   REQUIRE(f.truth.boxes.size() == 1);
   const std::vector<BoxFormat> formats = {{0.354, 0.271, "354x271"}, {0.265, 0.170, "265x170"}};
@@ -218,7 +222,8 @@ TEST_CASE("a real cell: one carton on a level of six, a cabinet above the load, 
   CHECK((d.boxes[0].base_position->head<2>() - top_centre).norm() < 0.015);
 }
 
-TEST_CASE("cartons built over their format: the format found, the measured size reported", "[cell][oversize]") {
+TEST_CASE("cartons built over their format: the format found, the measured size reported",
+          "[cell][oversize]") {
   const sim::SensorProfile profile = *sim::profile_by_name("o3d303");
   sim::ScenarioOptions options;
   options.pattern = sim::PatternFamily::kBlock;

@@ -1,5 +1,5 @@
-// How much of a layout's interior box sides the seam raster (or a gap in the outline) shows as seams. Cartons side by side
-// leave a gap or at least the groove of their rounded edges, which the depth (a dip) or the
+// How much of a layout's interior box sides the seam raster (or a gap in the outline) shows as seams. Cartons
+// side by side leave a gap or at least the groove of their rounded edges, which the depth (a dip) or the
 // intensity image (a dark line) shows wherever the sensor resolves it; a slip sheet over the
 // layer is one flat surface and shows none.
 #include <algorithm>
@@ -42,7 +42,8 @@ bool in_ring(const Ring2d& ring, const Eigen::Vector2d& p) {
   for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
     const Eigen::Vector2d& a = ring[i];
     const Eigen::Vector2d& b = ring[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) && p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
       in = !in;
   }
   return in;
@@ -76,11 +77,15 @@ InteriorSeams measure_interior_seams(const std::vector<LayoutBox>& boxes, const 
     const Eigen::Vector2d along(std::cos(b.yaw_rad), std::sin(b.yaw_rad));
     const Eigen::Vector2d across(-along.y(), along.x());
     // The four sides: outward normal, half extent along it, direction and half length of the side.
-    const struct { Eigen::Vector2d n; double e_n; Eigen::Vector2d t; double e_t; } sides[4] = {
-        {along, 0.5 * b.long_m, across, 0.5 * b.short_m},
-        {-along, 0.5 * b.long_m, across, 0.5 * b.short_m},
-        {across, 0.5 * b.short_m, along, 0.5 * b.long_m},
-        {-across, 0.5 * b.short_m, along, 0.5 * b.long_m}};
+    const struct {
+      Eigen::Vector2d n;
+      double e_n;
+      Eigen::Vector2d t;
+      double e_t;
+    } sides[4] = {{along, 0.5 * b.long_m, across, 0.5 * b.short_m},
+                  {-along, 0.5 * b.long_m, across, 0.5 * b.short_m},
+                  {across, 0.5 * b.short_m, along, 0.5 * b.long_m},
+                  {-across, 0.5 * b.short_m, along, 0.5 * b.long_m}};
     for (const auto& side : sides) {
       for (double s = -side.e_t + kCornerMargin_m; s <= side.e_t - kCornerMargin_m; s += step_m) {
         const Eigen::Vector2d q = b.center + side.n * side.e_n + side.t * s;
