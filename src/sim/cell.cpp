@@ -168,4 +168,15 @@ std::string roi_yaml(const Scene& scene) {
   return text;
 }
 
+Eigen::Isometry3d camera_looking_at(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d f = (target - position).normalized();
+  const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - f.x() * f).normalized();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear().col(0) = x;
+  T.linear().col(1) = f.cross(x);
+  T.linear().col(2) = f;
+  T.translation() = position;
+  return T;
+}
+
 }  // namespace palletd::sim

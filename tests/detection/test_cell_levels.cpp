@@ -155,17 +155,6 @@ sim::SimBox carton(const Eigen::Vector2d& center_m, double long_m, double short_
   return b;
 }
 
-/// Camera at `position` looking at `target`, image x along the world's x (world: z up).
-Eigen::Isometry3d look_at(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d f = (target - position).normalized();
-  const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - f.x() * f).normalized();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear().col(0) = x;
-  T.linear().col(1) = f.cross(x);
-  T.linear().col(2) = f;
-  T.translation() = position;
-  return T;
-}
 
 }  // namespace
 
@@ -196,7 +185,7 @@ TEST_CASE("a real cell: one carton on a level of six, a cabinet above the load, 
   scene.recipe = {{"354x271", 0.354, 0.271, 0.1}, {"265x170", 0.265, 0.170, 0.1}};
   // 1.5 m above the load, tilted 6 deg (towards the cabinet, which fills the image's far part).
   scene.T_world_camera =
-      look_at(Eigen::Vector3d(0.0, -0.16, scene.top_z_m + 1.5), Eigen::Vector3d(0.0, 0.0, scene.top_z_m));
+      sim::camera_looking_at(Eigen::Vector3d(0.0, -0.16, scene.top_z_m + 1.5), Eigen::Vector3d(0.0, 0.0, scene.top_z_m));
   const sim::SimulatedFrame f = sim::render(scene, profile, 17);
   REQUIRE(f.truth.boxes.size() == 1);
   const std::vector<BoxFormat> formats = {{0.354, 0.271, "354x271"}, {0.265, 0.170, "265x170"}};

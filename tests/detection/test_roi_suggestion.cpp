@@ -18,17 +18,6 @@ struct Cell {
   sim::SimBox post;
 };
 
-/// Camera at `position` looking at `target`, image x along the world's x (world: z up).
-Eigen::Isometry3d look_at(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d f = (target - position).normalized();
-  const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - f.x() * f).normalized();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear().col(0) = x;
-  T.linear().col(1) = f.cross(x);
-  T.linear().col(2) = f;
-  T.translation() = position;
-  return T;
-}
 
 sim::SimBox standing_box(const Eigen::Vector2d& center_m, double long_m, double short_m, double top_z_m) {
   sim::SimBox b;
@@ -59,7 +48,7 @@ Cell make_cell(double gap_m) {
   cell.post = standing_box(Eigen::Vector2d(-0.9, 0.6), 0.1, 0.1, 1.3);
   scene.boxes.push_back(cell.cabinet);
   scene.boxes.push_back(cell.post);
-  scene.T_world_camera = look_at(Eigen::Vector3d(0.0, 0.1, 3.5), Eigen::Vector3d(0.3, 0.0, 0.0));
+  scene.T_world_camera = sim::camera_looking_at(Eigen::Vector3d(0.0, 0.1, 3.5), Eigen::Vector3d(0.3, 0.0, 0.0));
   cell.sim = sim::render(scene, profile, 5);
   return cell;
 }

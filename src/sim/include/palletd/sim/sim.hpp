@@ -220,6 +220,10 @@ Expected<PalletKind> parse_pallet(const std::string& text);
 /// empty when the scene has none.
 std::string roi_yaml(const Scene& scene);
 
+/// A camera pose (T_world_camera) at `position` looking at `target` (world: z up), image x along
+/// the world's x as far as the view allows; for scenes built by hand.
+Eigen::Isometry3d camera_looking_at(const Eigen::Vector3d& position, const Eigen::Vector3d& target);
+
 /// Pixel of a camera-frame point (no distortion); false when behind the camera.
 bool project(const Intrinsics& intrinsics, const Eigen::Vector3d& p_camera, Eigen::Vector2d& pixel);
 /// The four top-face corners of a truth box, camera frame [m].
