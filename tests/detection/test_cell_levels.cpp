@@ -209,6 +209,30 @@ TEST_CASE("a real cell: one carton on a level of six, a cabinet above the load, 
   CHECK((d.boxes[0].center - f.truth.boxes[0].center).norm() < 0.015);
   REQUIRE(d.boxes[0].base_position);
   CHECK((d.boxes[0].base_position->head<2>() - top_centre).norm() < 0.015);
+
+  // Uncalibrated: the same volume as a camera-frame region; planes facing the camera, and the
+  // higher-level search still finds the single carton above the level of six.
+  Frame uncalibrated = f.frame;
+  uncalibrated.T_base_camera.reset();
+  const Eigen::Isometry3d T_camera_base = f.frame.T_base_camera->inverse();
+  RegionOfInterest in_camera;
+  in_camera.frame = RegionOfInterest::Frame::kCamera;
+  in_camera.min_m = Eigen::Vector3d::Constant(1e9);
+  in_camera.max_m = Eigen::Vector3d::Constant(-1e9);
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d q((corner & 1) != 0 ? roi.max_m.x() : roi.min_m.x(),
+                            (corner & 2) != 0 ? roi.max_m.y() : roi.min_m.y(),
+                            (corner & 4) != 0 ? roi.max_m.z() : roi.min_m.z());
+    in_camera.min_m = in_camera.min_m.cwiseMin(T_camera_base * q);
+    in_camera.max_m = in_camera.max_m.cwiseMax(T_camera_base * q);
+  }
+  params.roi = in_camera;
+  const Detection u = detect(uncalibrated, formats, params);
+  CAPTURE(to_string(u.status), u.message);
+  REQUIRE(u.status == DetectionStatus::kOk);
+  REQUIRE(u.boxes.size() == 1);
+  CHECK(u.boxes[0].format == 0);
+  CHECK((u.boxes[0].center - f.truth.boxes[0].center).norm() < 0.015);
 }
 
 TEST_CASE("cartons built over their format: the format found, the measured size reported",
