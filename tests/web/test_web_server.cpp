@@ -1,6 +1,8 @@
 // The status page server over loopback with httplib's client, fed by a real detection.
 #include <catch2/catch.hpp>
 
+#include <map>
+
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -163,6 +165,25 @@ TEST_CASE("/api/status puts an error code and its detail into words") {
   f.set_registers(image);
   const Json k = get_json(run.client, "/api/status");
   CHECK(k["status"]["error_text"].get<std::string>().find("recipe 9") != std::string::npos);
+}
+
+TEST_CASE("/api/status shows the result extension: why no boxes, height above the pallet, layers left") {
+  testing::WebFixture f;
+  modbus::RegisterImage image = f.encode(f.first(), modbus::kStReady);
+  image[modbus::kRegResultDetail] = static_cast<std::uint16_t>(modbus::ResultDetail::kSlipSheet);
+  image[modbus::kRegLayerInfoFlags] = modbus::kLayerHeightKnown | modbus::kLayersRemainingKnown;
+  modbus::put_i32(&image[modbus::kRegHeightAbovePallet], 7500, modbus::WordOrder::kHighWordFirst);
+  image[modbus::kRegLayersRemaining] = 3;
+  f.set_registers(image);
+  Running run(f, test_options());
+  const Json j = get_json(run.client, "/api/status");
+  std::map<std::string, Json> rows;
+  for (const auto& row : j["registers"]["blocks"][2]["rows"]) rows[row["name"].get<std::string>()] = row;
+  REQUIRE(rows.count("result detail") == 1);
+  CHECK(rows["result detail"]["address"] == "130");
+  CHECK(rows["result detail"]["meaning"] == "slip sheet: remove it");
+  CHECK(rows["height above pallet"]["value"] == "750.0 mm");
+  CHECK(rows["layers left"]["value"] == "3");
 }
 
 TEST_CASE("/api/result is the detection line of the spec plus trigger metadata") {
