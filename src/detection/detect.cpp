@@ -27,6 +27,10 @@ const char* to_string(DetectionStatus status) {
   return "bad_frame";
 }
 
+bool is_failure(DetectionStatus status) {
+  return status != DetectionStatus::kOk && status != DetectionStatus::kEmpty && status != DetectionStatus::kSlipSheet;
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;

@@ -65,7 +65,7 @@ int run_detect(const DetectArgs& a) {
     }
     std::printf("%s\n", detection_to_json_line(detection, stem).c_str());
     std::fflush(stdout);
-    if (detection.status != DetectionStatus::kOk) ++failed;
+    if (is_failure(detection.status)) ++failed;
     if (!frame) continue;
     const std::string name = std::filesystem::path(stem).filename().string();
     if (!a.overlay_dir.empty())

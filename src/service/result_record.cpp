@@ -41,7 +41,7 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
     r.status = modbus::ResultStatus::kNoBoxes;
     r.detail = detection.status == DetectionStatus::kEmpty ? modbus::ResultDetail::kEmpty
                                                            : modbus::ResultDetail::kSlipSheet;
-  } else if (detection.status != DetectionStatus::kOk) {
+  } else if (is_failure(detection.status)) {
     r.status = modbus::ResultStatus::kFailed;
     r.error = modbus::ErrorCode::kDetectionFailed;
     r.error_detail = static_cast<std::uint16_t>(failure_of(detection.status));

@@ -297,7 +297,7 @@ class Service::Impl {
       fail(record, snapshot, modbus::ErrorCode::kDetectionTimeout,
            static_cast<std::uint16_t>(std::min(elapsed_ms, 65535.0)),
            "detection took " + std::to_string(static_cast<int>(elapsed_ms)) + " ms, over the timeout");
-    } else if (detection.status != DetectionStatus::kOk) {
+    } else if (is_failure(detection.status)) {
       failures_.fetch_add(1);
       snapshot.error = modbus::ErrorCode::kDetectionFailed;
       snapshot.error_text = std::string(to_string(detection.status)) + ": " + detection.message;

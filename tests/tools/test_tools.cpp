@@ -186,4 +186,24 @@ TEST_CASE("palletctl simulate, roi and eval on cell scenes: a region per cell fr
   const Run eval = run("src/palletctl/palletctl", {"eval", out, "--cell-files", "-q"});
   CHECK(eval.exit_code == 0);
   CHECK_THAT(eval.out, Contains("unflagged wrong 0") && Contains("empty pallets 1: empty 1"));
+
+  // An empty pallet is an answer, not a failed frame: palletctl detect exits 0.
+  std::string empty_stem;
+  for (const std::string& c : cells)
+    if (c.find("_empty_") != std::string::npos) empty_stem = c.substr(0, c.size() - 9);
+  REQUIRE_FALSE(empty_stem.empty());
+  // The cell's region and pallet height in a configuration, with the frame's own calibration.
+  const palletd::Expected<palletd::Frame> frame = palletd::read_frame(empty_stem);
+  REQUIRE(frame);
+  REQUIRE(frame->T_base_camera);
+  std::ostringstream calibration;
+  calibration.precision(17);
+  calibration << "camera_to_base: [";
+  for (int i = 0; i < 16; ++i) calibration << (i > 0 ? ", " : "") << frame->T_base_camera->matrix()(i / 4, i % 4);
+  calibration << "]\n";
+  const std::string config = dir.file("cell.yaml");
+  write(config, slurp(empty_stem + ".roi.yaml") + calibration.str());
+  const Run detect = run("src/palletctl/palletctl", {"detect", empty_stem, "--box", "400x300", "--config", config});
+  CHECK(detect.exit_code == 0);
+  CHECK_THAT(detect.out, Contains("\"status\":\"empty\""));
 }

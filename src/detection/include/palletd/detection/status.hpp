@@ -10,5 +10,8 @@ enum class DetectionStatus { kOk, kNoPlane, kNoLayer, kNoLayout, kBadFrame, kEmp
 /// "ok", "no_plane", "no_layer", "no_layout", "bad_frame", "empty", "slip_sheet" (the words of
 /// shared/spec/detections.md).
 const char* to_string(DetectionStatus status);
+/// The frame could not be answered (no_plane, no_layer, no_layout, bad_frame); ok, empty and
+/// slip_sheet are answers.
+bool is_failure(DetectionStatus status);
 
 }  // namespace palletd
