@@ -77,11 +77,9 @@ const char* result_status_text(std::uint16_t v) {
 
 
 
-Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order) {
-  const modbus::StatusRecord st = modbus::decode_status(image, order);
-  const modbus::DecodedResult res = modbus::decode_result(image, order);
+/// Rows of the control block 0..15 (what the PLC wrote).
+Json control_rows(const modbus::RegisterImage& image) {
   const modbus::ControlRecord ctl = modbus::decode_control(image);
-
   Json control = Json::array();
   control.push_back(row(image, modbus::kRegControlWord, 1, "control word", hex16(ctl.control_word),
                         bits_in_words(ctl.control_word, control_bit_names())));
@@ -89,7 +87,12 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
   control.push_back(row(image, modbus::kRegRequestId, 1, "request id", std::to_string(ctl.request_id), "echoed in 107 and 201"));
   control.push_back(row(image, modbus::kRegPlcHeartbeat, 1, "PLC heartbeat", std::to_string(ctl.plc_heartbeat),
                         "changed by the PLC (optional watch)"));
+  return control;
+}
 
+/// Rows of the status block 100..129.
+Json status_rows(const modbus::RegisterImage& image, modbus::WordOrder order) {
+  const modbus::StatusRecord st = modbus::decode_status(image, order);
   Json status = Json::array();
   status.push_back(row(image, modbus::kRegStatusWord, 1, "status word", hex16(st.status_word),
                        bits_in_words(st.status_word, status_bit_names())));
@@ -144,7 +147,11 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
   };
   for (const auto& r : fault_rows)
     status.push_back(row(image, r.reg, 2, r.name, std::to_string(r.value), std::string(r.meaning) + ", since start"));
+  return status;
+}
 
+/// Rows of the result block 200..209 and 530, and of its extension 130..134.
+Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult& res) {
   const modbus::ResultRecord& rec = res.record;
   Json result = Json::array();
   result.push_back(row(image, modbus::kRegResultId, 1, "result id", std::to_string(res.result_id), "0 = no result yet"));
@@ -180,7 +187,11 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
                        rec.layers_remaining ? "counting the top layer" : "needs the formats' height_mm too"));
   result.push_back(row(image, modbus::kResultIdCopy, 1, "result id copy", std::to_string(res.result_id_copy),
                        res.result_id_copy == res.result_id ? "matches 200" : "differs from 200: torn read"));
+  return result;
+}
 
+/// One row per reported box slot (210 + 10 i).
+Json box_rows(const modbus::ResultRecord& rec) {
   Json boxes = Json::array();
   for (std::size_t i = 0; i < rec.boxes.size(); ++i) {
     const modbus::BoxRecord& b = rec.boxes[i];
@@ -196,13 +207,21 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
                      {"score", b.score},
                      {"pick_index", b.pick_index}});
   }
+  return boxes;
+}
 
+Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order) {
+  const modbus::DecodedResult res = modbus::decode_result(image, order);
+  const Json control = control_rows(image);
+  const Json status = status_rows(image, order);
+  const Json result = result_rows(image, res);
+  const Json boxes = box_rows(res.record);
   Json out;
   out["word_order"] = order == modbus::WordOrder::kLowWordFirst ? "low word first" : "high word first";
   out["blocks"] = Json::array(
       {Json{{"name", "control"}, {"title", "Control block 0-15 (written by the PLC)"}, {"rows", control}},
-       Json{{"name", "status"}, {"title", "Status block 100-117 (read-only)"}, {"rows", status}},
-       Json{{"name", "result"}, {"title", "Result block 200-209, 530 (read-only)"}, {"rows", result}}});
+       Json{{"name", "status"}, {"title", "Status block 100-129 (read-only)"}, {"rows", status}},
+       Json{{"name", "result"}, {"title", "Result block 200-209, 530 and its extension 130-134 (read-only)"}, {"rows", result}}});
   out["boxes"] = boxes;
   return out;
 }
