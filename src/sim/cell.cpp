@@ -29,15 +29,8 @@ Side side_of(const Scene& scene, int index) {
 /// pallet's centre line and `shift_m` along the side.
 SimBox part(const Side& side, double dist_m, double shift_m, double along_m, double out_m, double bottom_z_m,
             double top_z_m, double reflectance) {
-  SimBox b;
-  b.center = side.out * dist_m + side.along * shift_m;
-  b.yaw_rad = std::atan2(side.along.y(), side.along.x());
-  b.long_m = along_m;
-  b.short_m = out_m;
-  b.bottom_z_m = bottom_z_m;
-  b.top_z_m = top_z_m;
-  b.reflectance = reflectance;
-  return b;
+  return cuboid(side.out * dist_m + side.along * shift_m, std::atan2(side.along.y(), side.along.x()), along_m,
+                out_m, bottom_z_m, top_z_m, reflectance);
 }
 
 void push_part(Scene& scene, const SimBox& b) {

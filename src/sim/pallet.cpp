@@ -12,28 +12,15 @@ constexpr double kBlockHeight_m = 0.078;
 constexpr double kWoodReflectance = 0.4;
 constexpr double kBlockReflectance = 0.35;
 
-SimBox wood(const Eigen::Vector2d& center, double yaw_rad, double long_m, double short_m, double bottom_z_m,
-            double top_z_m, double reflectance) {
-  SimBox b;
-  b.center = center;
-  b.yaw_rad = yaw_rad;
-  b.long_m = long_m;
-  b.short_m = short_m;
-  b.bottom_z_m = bottom_z_m;
-  b.top_z_m = top_z_m;
-  b.reflectance = reflectance;
-  return b;
-}
-
 /// The deck as one slab over three solid rows of blocks along the long side.
 void add_solid_pallet(Scene& scene, const Eigen::Vector2d& center) {
   const double deck_bottom_m = kPalletHeight_m - kBoardThickness_m;
-  scene.boxes.push_back(wood(center, 0.0, scene.pallet_long_m, scene.pallet_short_m, deck_bottom_m,
-                             kPalletHeight_m, kWoodReflectance));
+  scene.boxes.push_back(cuboid(center, 0.0, scene.pallet_long_m, scene.pallet_short_m, deck_bottom_m,
+                               kPalletHeight_m, kWoodReflectance));
   for (int k = -1; k <= 1; ++k) {
     const Eigen::Vector2d row(0.0, k * (0.5 * scene.pallet_short_m - 0.0725));
     scene.boxes.push_back(
-        wood(row + center, 0.0, scene.pallet_long_m, 0.145, 0.0, deck_bottom_m, kBlockReflectance));
+        cuboid(row + center, 0.0, scene.pallet_long_m, 0.145, 0.0, deck_bottom_m, kBlockReflectance));
   }
 }
 
@@ -47,6 +34,19 @@ std::vector<double> deck_board_widths(double short_m) {
 }
 
 }  // namespace
+
+SimBox cuboid(const Eigen::Vector2d& center, double yaw_rad, double long_m, double short_m, double bottom_z_m,
+              double top_z_m, double reflectance) {
+  SimBox b;
+  b.center = center;
+  b.yaw_rad = yaw_rad;
+  b.long_m = long_m;
+  b.short_m = short_m;
+  b.bottom_z_m = bottom_z_m;
+  b.top_z_m = top_z_m;
+  b.reflectance = reflectance;
+  return b;
+}
 
 void add_pallet(Scene& scene, const Eigen::Vector2d& center, bool solid_deck) {
   if (scene.pallet == PalletKind::kNone) return;
@@ -65,23 +65,23 @@ void add_pallet(Scene& scene, const Eigen::Vector2d& center, bool solid_deck) {
   const double gap_m = (scene.pallet_short_m - covered_m) / static_cast<double>(widths.size() - 1);
   double y = -hs;
   for (double w : widths) {
-    scene.boxes.push_back(wood(center + Eigen::Vector2d(0.0, y + 0.5 * w), 0.0, scene.pallet_long_m, w,
-                               z_deck, kPalletHeight_m, kWoodReflectance));
+    scene.boxes.push_back(cuboid(center + Eigen::Vector2d(0.0, y + 0.5 * w), 0.0, scene.pallet_long_m, w,
+                                 z_deck, kPalletHeight_m, kWoodReflectance));
     y += w + gap_m;
   }
   // Cross boards and blocks at both ends and in the middle; bottom boards under the block rows.
   const double xs[3] = {-(hl - 0.0725), 0.0, hl - 0.0725};
   const double ys[3] = {-(hs - 0.0725), 0.0, hs - 0.0725};
   for (double x : xs)
-    scene.boxes.push_back(wood(center + Eigen::Vector2d(x, 0.0), 0.5 * kPi, scene.pallet_short_m, 0.145,
-                               z_cross, z_deck, kWoodReflectance));
+    scene.boxes.push_back(cuboid(center + Eigen::Vector2d(x, 0.0), 0.5 * kPi, scene.pallet_short_m, 0.145,
+                                 z_cross, z_deck, kWoodReflectance));
   for (double x : xs)
     for (double yb : ys)
       scene.boxes.push_back(
-          wood(center + Eigen::Vector2d(x, yb), 0.0, 0.145, 0.145, z_blocks, z_cross, kBlockReflectance));
+          cuboid(center + Eigen::Vector2d(x, yb), 0.0, 0.145, 0.145, z_blocks, z_cross, kBlockReflectance));
   for (double yb : ys)
-    scene.boxes.push_back(wood(center + Eigen::Vector2d(0.0, yb), 0.0, scene.pallet_long_m,
-                               yb == 0.0 ? 0.100 : 0.145, 0.0, z_blocks, kWoodReflectance));
+    scene.boxes.push_back(cuboid(center + Eigen::Vector2d(0.0, yb), 0.0, scene.pallet_long_m,
+                                 yb == 0.0 ? 0.100 : 0.145, 0.0, z_blocks, kWoodReflectance));
 }
 
 double add_slip_sheet(Scene& scene, double bottom_z_m, Rng& rng) {
@@ -101,8 +101,8 @@ double add_slip_sheet(Scene& scene, double bottom_z_m, Rng& rng) {
   const double top_z_m = bottom_z_m + thickness_m;
   auto piece = [&](double ax, double bx, double ay, double by, double dz) {
     if (bx - ax < 1e-4 || by - ay < 1e-4) return;
-    SimBox b = wood(Eigen::Vector2d(0.5 * (ax + bx), 0.5 * (ay + by)), 0.0, bx - ax, by - ay, bottom_z_m + dz,
-                    top_z_m + dz, rho);
+    SimBox b = cuboid(Eigen::Vector2d(0.5 * (ax + bx), 0.5 * (ay + by)), 0.0, bx - ax, by - ay,
+                      bottom_z_m + dz, top_z_m + dz, rho);
     scene.boxes.push_back(b);
   };
   // The flat middle, then the curled strips along the edges.

@@ -84,6 +84,11 @@ std::vector<std::size_t> removal_order(const std::vector<SimBox>& layer, Removal
 
 constexpr double kPalletHeight_m = 0.144;  ///< EUR and industrial pallets [m]
 
+/// A plain cuboid part of the scene (pallet wood, cell furniture): no bulge, bevel or patches,
+/// not a box of the load (format_index -1).
+SimBox cuboid(const Eigen::Vector2d& center, double yaw_rad, double long_m, double short_m, double bottom_z_m,
+              double top_z_m, double reflectance);
+
 /// Adds a pallet's parts centred at `center` (x along its long side): top deck boards with gaps,
 /// three cross boards, nine blocks, three bottom boards; or, with `solid_deck`, the deck as one
 /// slab over three solid rows of blocks (the model before issue 19).
