@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config git
+  lld  # the linker scripts/test.sh uses when present (much faster links)
   # libraries
   libpcl-dev libcgal-dev libopencv-dev libeigen3-dev
   libaravis-dev aravis-tools libopenni2-dev

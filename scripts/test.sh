@@ -22,9 +22,24 @@ if [[ -z "$stages" ]]; then
   if [[ "${CI:-}" == "true" ]]; then stages="release asan tsan fuzz"; else stages="release"; fi
 fi
 werror=()
-if [[ "${CI:-}" == "true" ]]; then werror=(-DPALLETD_WERROR=ON); fi
+release_args=()
+link_args=()
+san_debug="-O1 -g"
+if [[ "${CI:-}" == "true" ]]; then
+  werror=(-DPALLETD_WERROR=ON)
+  # CI keeps line tables only (enough for sanitizer reports and backtraces): full debug info
+  # made every compile about a quarter slower.
+  release_args=("-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG")
+  san_debug="-O1 -g1"
+fi
+# lld links in a fraction of the time of the default linker (7 s against 1 s for palletctl).
+if command -v ld.lld >/dev/null 2>&1; then
+  link_args=(-DCMAKE_EXE_LINKER_FLAGS=-fuse-ld=lld -DCMAKE_SHARED_LINKER_FLAGS=-fuse-ld=lld
+             -DCMAKE_MODULE_LINKER_FLAGS=-fuse-ld=lld)
+fi
 # Sanitizer builds: -O1 keeps them fast enough to build and run; no benchmarks.
-san_args=(-G Ninja -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -g" -DPALLETD_BUILD_BENCH=OFF)
+san_args=(-G Ninja -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=$san_debug" -DPALLETD_BUILD_BENCH=OFF
+          "${link_args[@]}")
 
 clang_cxx() { if command -v clang++-14 >/dev/null 2>&1; then echo clang++-14; else echo clang++; fi; }
 
@@ -38,7 +53,8 @@ stage_release() {
   local build_dir=${BUILD_DIR:-build}
   local extra_args=()
   if [[ -n "${CMAKE_ARGS:-}" ]]; then read -r -a extra_args <<<"$CMAKE_ARGS"; fi
-  cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${werror[@]}" "${extra_args[@]}" >/dev/null || return 1
+  cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${werror[@]}" "${release_args[@]}" \
+    "${link_args[@]}" "${extra_args[@]}" >/dev/null || return 1
   cmake --build "$build_dir" -j "$jobs" || return 1
   npm_deps "$build_dir"
   ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-}
