@@ -3,7 +3,8 @@
 #   scripts/fuzz.sh                  # 60 s per target
 #   scripts/fuzz.sh 3600 fuzz_modbus # one target for an hour
 # Environment: FUZZ_BUILD_DIR (build-fuzz), FUZZ_WORK_DIR (<build dir>/fuzz-work: the corpus the
-# fuzzer grows, crash files, logs), FUZZ_JOBS (parallel fuzzing processes per target, 1),
+# fuzzer grows, crash files, logs), FUZZ_JOBS (parallel fuzzing processes per target, 1; the targets
+# themselves run JOBS at a time),
 # JOBS (build parallelism), CXX (clang++-14, else clang++), FUZZ_SKIP_BUILD=1.
 # Exit status: 0 when no target found anything; 1 when one crashed, leaked, timed out or hit an
 # oracle (the input is in FUZZ_WORK_DIR/crashes/, reproduce with `<target> <file>`).
@@ -47,19 +48,18 @@ export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$here/tests/sanitizers/lsan.su
 declare -A max_len=([fuzz_modbus]=2048 [fuzz_frame_reader]=8192 [fuzz_config]=16384 [fuzz_detection]=256)
 declare -A timeout=([fuzz_modbus]=30 [fuzz_frame_reader]=30 [fuzz_config]=30 [fuzz_detection]=60)
 
-failed=0
-printf '%-18s %8s %10s %8s %8s %8s  %s\n' target seconds execs exec/s cov ft result
-for t in "${targets[@]}"; do
-  exe="$build_dir/tests/fuzz/$t"
-  [[ -x "$exe" ]] || { echo "fuzz: $exe not built" >&2; exit 2; }
+# One target: runs it and writes its table row to $work/logs/$t.row (FAILED when it found something).
+fuzz_one() {
+  local t=$1 exe="$build_dir/tests/fuzz/$1"
+  [[ -x "$exe" ]] || { echo "fuzz: $exe not built" >&2; return; }
   mkdir -p "$work/corpus/$t" "$work/crashes" "$work/logs"
-  log="$work/logs/$t.log"
+  local log="$work/logs/$t.log"
   # New finds go to the work corpus (first folder); the committed seeds are only read.
-  parallel=()
+  local parallel=()
   if [[ "${FUZZ_JOBS:-1}" != 1 ]]; then  # -fork: N processes share one corpus, one log
     parallel=(-fork="$FUZZ_JOBS" -ignore_crashes=0 -ignore_timeouts=0 -ignore_ooms=0)
   fi
-  started=$SECONDS
+  local started=$SECONDS rc
   set +e
   "$exe" "$work/corpus/$t" "$here/tests/fuzz/corpus/$t" \
     -max_total_time="$seconds" -max_len="${max_len[$t]}" -timeout="${timeout[$t]}" \
@@ -67,7 +67,7 @@ for t in "${targets[@]}"; do
     -artifact_prefix="$work/crashes/$t-" >"$log" 2>&1
   rc=$?
   set -e
-  elapsed=$((SECONDS - started))
+  local elapsed=$((SECONDS - started)) execs rate cov ft result=ok
   # Plain runs end with -print_final_stats lines; -fork runs only with "#N: cov: .. ft: .." lines.
   execs=$( (grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" || true) | awk '{s+=$2} END{print s+0}')
   rate=$( (grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" || true) | awk '{s+=$2} END{print s+0}')
@@ -78,12 +78,27 @@ for t in "${targets[@]}"; do
   fi
   cov=$( (grep -o 'cov: [0-9]*' "$log" || true) | tail -n 1 | awk '{print $2}')
   ft=$( (grep -o 'ft: [0-9]*' "$log" || true) | tail -n 1 | awk '{print $2}')
-  result=ok
   if [[ $rc -ne 0 ]]; then
     result="FAILED (rc $rc, see $log)"
-    failed=1
     grep -m 5 -E 'ERROR:|fuzz oracle:|SUMMARY:|Test unit written' "$log" >&2 || true
   fi
-  printf '%-18s %8s %10s %8s %8s %8s  %s\n' "$t" "$elapsed" "${execs:-0}" "${rate:-0}" "${cov:--}" "${ft:--}" "$result"
+  printf '%-18s %8s %10s %8s %8s %8s  %s\n' "$t" "$elapsed" "${execs:-0}" "${rate:-0}" "${cov:--}" "${ft:--}" \
+    "$result" >"$work/logs/$t.row"
+}
+
+# The targets run $jobs at a time (each fuzzer is one process on one core); a target whose row is
+# missing or says FAILED fails the run.
+failed=0
+for t in "${targets[@]}"; do
+  while [[ $(jobs -rp | wc -l) -ge $jobs ]]; do wait -n || true; done
+  rm -f "$work/logs/$t.row"
+  fuzz_one "$t" &
+done
+wait || true
+printf '%-18s %8s %10s %8s %8s %8s  %s\n' target seconds execs exec/s cov ft result
+for t in "${targets[@]}"; do
+  row="$work/logs/$t.row"
+  if [[ ! -s "$row" ]] || grep -q FAILED "$row"; then failed=1; fi
+  cat "$row" 2>/dev/null || printf '%-18s  no result (see %s)\n' "$t" "$work/logs/$t.log"
 done
 exit $failed

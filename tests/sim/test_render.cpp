@@ -277,6 +277,7 @@ TEST_CASE("the same seed gives identical frames, another seed another frame") {
     for (std::size_t j = 0; j < a.truth.boxes.size(); ++j) CHECK(a.truth.boxes[j].center == b.truth.boxes[j].center);
   }
   set.seed = 100;
+  set.count = 1;  // the first frame of another seed is enough
   auto third = generate_set(set);
   REQUIRE(third.ok());
   CHECK((*third)[0].frame.depth != (*first)[0].frame.depth);
