@@ -12,6 +12,7 @@ packages=(
   libaravis-dev aravis-tools libopenni2-dev
   libmodbus-dev libspdlog-dev libyaml-cpp-dev libsystemd-dev
   nlohmann-json3-dev libcli11-dev libcpp-httplib-dev
+  prometheus-cpp-dev  # the metrics' families and text format (src/metrics)
   catch2
   # test peers and tools: python Modbus client, systemd-analyze, network namespaces
   python3 python3-pymodbus systemd iproute2 util-linux
@@ -20,6 +21,7 @@ packages=(
   chromium  # headless browser test of the status page (tests/web)
   clang-14 libclang-rt-14-dev  # ASan+UBSan build with libFuzzer (scripts/test.sh asan/fuzz stages)
   gdb  # thread stacks of a daemon that does not exit in time (tests/reliability/daemon_harness.hpp)
+  prometheus  # promtool and a real Prometheus scraping palletd (tests/metrics); its service stays off
 )
 if [[ "${1:-}" == "--print" ]]; then printf '%s\n' "${packages[@]}"; exit 0; fi
 
@@ -39,5 +41,13 @@ sudo=""
 if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
 echo "install-deps: installing ${#missing[@]} package(s): ${missing[*]}" >&2
 export DEBIAN_FRONTEND=noninteractive
+# Packages that are services (prometheus) must not start one: the tests start their own on
+# loopback. Where no policy-rc.d says so already, one that refuses every start stands for the install.
+policy=/usr/sbin/policy-rc.d
+if [[ ! -e $policy ]]; then
+  printf '#!/bin/sh\nexit 101\n' | $sudo tee "$policy" >/dev/null
+  $sudo chmod 755 "$policy"
+  trap '$sudo rm -f "$policy"' EXIT
+fi
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

@@ -18,7 +18,8 @@ namespace {
 const std::vector<std::string>& top_level_keys() {
   static const std::vector<std::string> keys = {"camera",    "camera_to_base", "formats",
                                                 "recipes",   "pallet",         "detection",      "modbus",
-                                                "pipeline",  "logging",        "recording", "web"};
+                                                "pipeline",  "logging",        "recording", "web", "metrics",
+                                                "shadow_config"};
   return keys;
 }
 
@@ -28,6 +29,18 @@ YAML::Node load_yaml(const std::string& name, const std::string& text) {
   } catch (const YAML::Exception& e) {
     fail_at(Context{name, ""}, e.mark, "", "YAML syntax error: " + e.msg);
   }
+}
+
+/// `shadow_config: FILE` (null = none): loads FILE as a configuration of its own (its errors name
+/// FILE and its line); a shadow may not name a shadow of its own.
+void read_shadow_config(const Context& ctx, const YAML::Node& node, Config& config) {
+  if (node.IsNull()) return;
+  config.shadow_config = resolve_path(ctx, read_string(ctx, node, "shadow_config"));
+  if (config.shadow_config.empty()) return;
+  Config shadow = load_config(config.shadow_config);
+  if (!shadow.shadow_config.empty())
+    fail(ctx, node, "shadow_config", config.shadow_config + " names a shadow configuration of its own");
+  config.shadow = std::make_shared<const Config>(std::move(shadow));
 }
 
 void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
@@ -45,6 +58,8 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (const YAML::Node n = root["logging"]) read_section(ctx, n, "logging", logging_table(), config.logging);
   if (const YAML::Node n = root["recording"]) read_section(ctx, n, "recording", recording_table(), config.recording);
   if (const YAML::Node n = root["web"]) read_section(ctx, n, "web", web_table(), config.web);
+  if (const YAML::Node n = root["metrics"]) read_section(ctx, n, "metrics", metrics_table(), config.metrics);
+  if (const YAML::Node n = root["shadow_config"]) read_shadow_config(ctx, n, config);
 
   // Checks across keys, reported at the later key.
   if (config.detection.roi && config.detection.roi->frame == RegionOfInterest::Frame::kBase && !config.T_base_camera) {
@@ -89,6 +104,17 @@ Config parse_config(const std::string& yaml_text, const std::string& name, const
 }
 
 Config load_config(const std::string& path) {
+  // A configuration is a regular file of a sane size: a device (/dev/zero) or a huge file named
+  // by mistake (or by shadow_config) must fail, not hang the start.
+  constexpr std::uintmax_t kMaxBytes = 1u << 20;
+  std::error_code exists_ec;
+  if (std::filesystem::exists(path, exists_ec)) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec) && !std::filesystem::is_directory(path, ec))
+      throw ConfigError(path, 0, 0, "", "cannot read the configuration: not a regular file");
+    if (std::filesystem::is_regular_file(path, ec) && std::filesystem::file_size(path, ec) > kMaxBytes)
+      throw ConfigError(path, 0, 0, "", "cannot read the configuration: larger than 1 MiB");
+  }
   auto text = io_detail::read_text_file(path);
   if (!text) throw ConfigError(path, 0, 0, "", "cannot read the configuration: " + text.error());
   std::error_code ec;
@@ -138,6 +164,8 @@ std::vector<std::string> config_differences(const Config& a, const Config& b) {
   compare_section(a.logging, b.logging, "logging", logging_table(), diffs);
   compare_section(a.recording, b.recording, "recording", recording_table(), diffs);
   compare_section(a.web, b.web, "web", web_table(), diffs);
+  compare_section(a.metrics, b.metrics, "metrics", metrics_table(), diffs);
+  if (a.shadow_config != b.shadow_config) diffs.emplace_back("shadow_config");
   return diffs;
 }
 
@@ -154,6 +182,8 @@ std::vector<std::string> config_key_paths() {
   list_section("logging", logging_table(), keys);
   list_section("recording", recording_table(), keys);
   list_section("web", web_table(), keys);
+  list_section("metrics", metrics_table(), keys);
+  keys.emplace_back("shadow_config");
   return keys;
 }
 

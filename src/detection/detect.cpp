@@ -27,6 +27,17 @@ const char* to_string(DetectionStatus status) {
   return "bad_frame";
 }
 
+const char* to_string(AmbiguityKind kind) {
+  switch (kind) {
+    case AmbiguityKind::kTiedLayouts: return "tied_layouts";
+    case AmbiguityKind::kSearchBudget: return "search_budget";
+    case AmbiguityKind::kUnexplainedArea: return "unexplained_area";
+    case AmbiguityKind::kLevelCheck: return "level_check";
+    case AmbiguityKind::kHeightOffLayers: return "height_off_layers";
+  }
+  return "level_check";
+}
+
 bool is_failure(DetectionStatus status) {
   return status != DetectionStatus::kOk && status != DetectionStatus::kEmpty && status != DetectionStatus::kSlipSheet;
 }
@@ -51,13 +62,16 @@ std::string frame_problem(const Frame& frame) {
   return {};
 }
 
-/// Why the layout search flagged its answer, as a sentence for the operator.
-std::string ambiguity_reason(const LayoutResult& layout) {
+/// Why the layout search flagged its answer, as a sentence for the operator and a category.
+std::pair<std::string, AmbiguityKind> ambiguity_reason(const LayoutResult& layout) {
   if (!layout.runner_up.empty())
-    return "another arrangement of " + std::to_string(layout.runner_up.size()) +
-           " boxes explains the outline and the seams nearly as well";
-  if (layout.budget_exhausted) return "the search ended at its budget before it could rule out other arrangements";
-  return "part of the layer is not explained by the boxes found";
+    return {"another arrangement of " + std::to_string(layout.runner_up.size()) +
+                " boxes explains the outline and the seams nearly as well",
+            AmbiguityKind::kTiedLayouts};
+  if (layout.budget_exhausted)
+    return {"the search ended at its budget before it could rule out other arrangements",
+            AmbiguityKind::kSearchBudget};
+  return {"part of the layer is not explained by the boxes found", AmbiguityKind::kUnexplainedArea};
 }
 
 }  // namespace
@@ -119,6 +133,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   auto without_boxes = [&](const LevelVerdict& verdict) {
     out.ambiguous = false;
     out.ambiguity_reason.clear();
+    out.ambiguity_kinds.clear();
     out.status = verdict.status;
     layer_height(layer_z_m, formats, params.pallet, out);
     return finish(verdict.status, verdict.message);
@@ -133,11 +148,16 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.budget_exhausted = layout.budget_exhausted;
   out.coverage = layout.coverage;
   out.interior_seams = layout.interior_seams;
-  if (out.ambiguous) out.ambiguity_reason = ambiguity_reason(layout);
+  if (out.ambiguous) {
+    auto [reason, kind] = ambiguity_reason(layout);
+    out.ambiguity_reason = std::move(reason);
+    out.ambiguity_kinds.push_back(kind);
+  }
   if (std::optional<LevelVerdict> level = level_after_layout(cloud, layout, out.layer, formats, params.plane)) {
     if (level->status != DetectionStatus::kOk) return without_boxes(*level);
     out.ambiguous = true;
     out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + level->message;
+    out.ambiguity_kinds.push_back(AmbiguityKind::kLevelCheck);
   }
   if (layout.status != DetectionStatus::kOk) return finish(layout.status, layout.reason);
 

@@ -291,6 +291,7 @@ void layer_height(const std::optional<double>& layer_z_m, const std::vector<BoxF
     out.ambiguous = true;
     out.height_off_layers = true;
     out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + s.str();
+    out.ambiguity_kinds.push_back(AmbiguityKind::kHeightOffLayers);
   }
 }
 

@@ -65,6 +65,7 @@ void Handshake::refresh() {
   s.frames_grabbed = service_.frames_grabbed;
   s.camera_reconnects = service_.camera_reconnects;
   s.camera_faults = service_.camera_faults;
+  s.connections = connections_;
   encode_status(s, options_.word_order, image_);
   ++version_;
 }
@@ -100,6 +101,7 @@ std::vector<HandshakeEvent> Handshake::on_control_written(const std::uint16_t* c
     if (busy_ || !ready) {
       missed_trigger_ = true;
       if (missed_count_ < 0xFFFF) ++missed_count_;
+      ++missed_total_;
     } else {
       busy_ = true;
       trigger_ack_ = true;
@@ -145,6 +147,12 @@ void Handshake::on_result(const ResultRecord& result, Clock::time_point now) {
 
 void Handshake::on_service_status(const ServiceStatus& status) {
   service_ = status;
+  refresh();
+}
+
+void Handshake::on_connections(const ConnectionCounters& connections) {
+  if (connections == connections_) return;
+  connections_ = connections;
   refresh();
 }
 

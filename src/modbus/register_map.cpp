@@ -95,6 +95,11 @@ void encode_status(const StatusRecord& s, WordOrder order, RegisterImage& image)
   put_u32(r + kRegCameraLosses, f.camera_losses, order);
   put_u32(r + kRegCameraRestarts, f.camera_restarts, order);
   put_u32(r + kRegResentPackets, f.resent_packets, order);
+  const ConnectionCounters& c = s.connections;
+  put_u32(r + kRegConnectionsEvicted, c.evicted, order);
+  put_u32(r + kRegConnectionsRefused, c.refused, order);
+  r[kRegOpenConnections] = c.open;
+  r[kRegMaxConnections] = c.max_connections;
 }
 
 void clear_result(RegisterImage& image) {
@@ -225,6 +230,11 @@ StatusRecord decode_status(const RegisterImage& image, WordOrder order) {
   f.camera_losses = get_u32(r + kRegCameraLosses, order);
   f.camera_restarts = get_u32(r + kRegCameraRestarts, order);
   f.resent_packets = get_u32(r + kRegResentPackets, order);
+  ConnectionCounters& c = s.connections;
+  c.evicted = get_u32(r + kRegConnectionsEvicted, order);
+  c.refused = get_u32(r + kRegConnectionsRefused, order);
+  c.open = r[kRegOpenConnections];
+  c.max_connections = r[kRegMaxConnections];
   return s;
 }
 

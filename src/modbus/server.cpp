@@ -76,7 +76,7 @@ Status ModbusServer::Impl::start() {
   const auto now = Clock::now();
   handshake_.emplace(options_.handshake, now);
   absorb_published(now);
-  sync_mapping();
+  update_connection_registers();
   publish_copies();
   last_alive_ = now.time_since_epoch().count();
   running_ = true;

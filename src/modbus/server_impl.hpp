@@ -16,6 +16,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 #include <utility>
@@ -128,6 +129,7 @@ class ModbusServer::Impl {
   std::uint64_t synced_version_ = ~std::uint64_t{0};
   std::vector<std::unique_ptr<Connection>> connections_;
   ServerStats stats_;
+  std::set<std::string> evicted_peers_;  // addresses evicted at least once (logged once each)
 
  private:
   void log(const std::string& message) const {
@@ -144,6 +146,9 @@ class ModbusServer::Impl {
   void serve(Connection& c, Clock::time_point now);
   void handle_frame(Connection& c, const std::uint8_t* frame, std::size_t size, Clock::time_point now);
   void publish_copies();
+  void evict_one();
+  void reply_exception(Connection& c, const std::uint8_t* frame, std::uint8_t code);
+  void update_connection_registers();
   int poll_timeout_ms(Clock::time_point now) const;
 
   friend class ModbusServer;

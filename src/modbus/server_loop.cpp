@@ -56,6 +56,8 @@ void ModbusServer::Impl::push_events(const std::vector<HandshakeEvent>& events) 
 
 void ModbusServer::Impl::publish_copies() {
   stats_.open_connections = connections_.size();
+  stats_.missed_triggers = handshake_->missed_total();
+  stats_.plc_heartbeat_lost = handshake_->plc_heartbeat_lost();
   std::lock_guard<std::mutex> lock(image_mutex_);
   image_copy_ = handshake_->registers();
   stats_copy_ = stats_;
@@ -121,6 +123,7 @@ void ModbusServer::Impl::run() {
                                       [](const auto& c) { return c->closing; }),
                        connections_.end());
     if (rc > 0 && (fds[1].revents & POLLIN) != 0) accept_all(now);
+    update_connection_registers();
     publish_copies();
   }
 }
@@ -144,18 +147,7 @@ void ModbusServer::Impl::accept_all(Clock::time_point now) {
       log("modbus: refused connection from " + name + " (not on the allow list)");
       continue;
     }
-    if (connections_.size() >= static_cast<std::size_t>(options_.max_connections)) {
-      // Longest idle first, but a connection that never sent a request goes before one that did:
-      // a burst of silent connections must not push out the PLC between two of its polls.
-      auto oldest = std::min_element(connections_.begin(), connections_.end(),
-                                     [](const auto& a, const auto& b) {
-                                       if ((a->requests == 0) != (b->requests == 0)) return a->requests == 0;
-                                       return a->last_activity < b->last_activity;
-                                     });
-      log("modbus: connection cap reached; closing the longest idle one from " + (*oldest)->peer);
-      connections_.erase(oldest);
-      ++stats_.connections_evicted;
-    }
+    if (connections_.size() >= static_cast<std::size_t>(options_.max_connections)) evict_one();
     const int on = 1;
     setsockopt(fd.get(), IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
     auto c = std::make_unique<Connection>();
@@ -165,8 +157,55 @@ void ModbusServer::Impl::accept_all(Clock::time_point now) {
     c->last_activity = now;
     connections_.push_back(std::move(c));
     ++stats_.connections_accepted;
-    log("modbus: connection from " + name);
+    // Clients that were evicted reconnect at their poll rate: their connections are counted only.
+    if (evicted_peers_.count(name) == 0) log("modbus: connection from " + name);
   }
+}
+
+void ModbusServer::Impl::evict_one() {
+  // Longest idle first, but a connection that never sent a request goes before one that did:
+  // a burst of silent connections must not push out the PLC between two of its polls.
+  auto oldest = std::min_element(connections_.begin(), connections_.end(),
+                                 [](const auto& a, const auto& b) {
+                                   if ((a->requests == 0) != (b->requests == 0)) return a->requests == 0;
+                                   return a->last_activity < b->last_activity;
+                                 });
+  const std::string peer = (*oldest)->peer;
+  connections_.erase(oldest);
+  ++stats_.connections_evicted;
+  // The first eviction per address is logged; the rest show in registers 140-141 and the metrics
+  // (32 pollers over a cap of 16 evict thousands of times a minute). The set is bounded.
+  constexpr std::size_t kMaxRemembered = 1024;
+  if (evicted_peers_.count(peer) != 0 || evicted_peers_.size() >= kMaxRemembered) return;
+  evicted_peers_.insert(peer);
+  log("modbus: connection cap reached (modbus.max_connections = " + std::to_string(options_.max_connections) +
+      "): closed the longest idle connection, from " + peer +
+      "; its further evictions are counted in registers 140-141, not logged. Raise the cap to the "
+      "number of clients that poll at once.");
+}
+
+void ModbusServer::Impl::update_connection_registers() {
+  ConnectionCounters c;
+  c.evicted = static_cast<std::uint32_t>(stats_.connections_evicted);  // wraps at 2^32
+  c.refused = static_cast<std::uint32_t>(stats_.connections_refused);
+  c.open = static_cast<std::uint16_t>(std::min<std::size_t>(connections_.size(), 65535));
+  c.max_connections = static_cast<std::uint16_t>(std::clamp(options_.max_connections, 0, 65535));
+  handshake_->on_connections(c);
+  sync_mapping();
+}
+
+void ModbusServer::Impl::reply_exception(Connection& c, const std::uint8_t* frame,
+                                         std::uint8_t code) {
+  const std::uint8_t function = frame[detail::kMbapLength];
+  if (function < 0x80) {
+    if (modbus_reply_exception(ctx_.get(), frame, code) < 0) c.closing = true;
+    return;
+  }
+  // Function codes 0x80..0xFF: libmodbus answers fc + 0x80 in 8 bits (0x83 -> 0x03, which reads
+  // as a normal reply). The application protocol's exception keeps the top bit set: 0x80 | fc.
+  const std::uint8_t reply[9] = {frame[0], frame[1], 0, 0, 0, 3, frame[6], function, code};
+  const ssize_t sent = ::send(c.fd.get(), reply, sizeof reply, MSG_NOSIGNAL);
+  if (sent != static_cast<ssize_t>(sizeof reply)) c.closing = true;
 }
 
 void ModbusServer::Impl::serve(Connection& c, Clock::time_point now) {
@@ -229,7 +268,8 @@ void ModbusServer::Impl::handle_frame(Connection& c, const std::uint8_t* frame, 
   }
   if (exception != 0) {
     ++stats_.exceptions;
-    if (modbus_reply_exception(ctx_.get(), frame, exception) < 0) c.closing = true;
+    ++stats_.exceptions_by_code[exception & 0x0Fu];
+    reply_exception(c, frame, exception);
     return;
   }
   const std::uint8_t function = frame[detail::kMbapLength];

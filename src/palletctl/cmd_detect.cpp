@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -37,12 +36,6 @@ Detection bad_frame(const std::string& message) {
   return d;
 }
 
-void write_file(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-  if (!out) spdlog::error("cannot write {}", path.string());
-}
-
 int run_detect(const DetectArgs& a) {
   DetectSetup setup = make_detect_setup(a.config, a.recipe, a.boxes);
   if (setup.formats.empty()) {
@@ -69,7 +62,7 @@ int run_detect(const DetectArgs& a) {
     if (!frame) continue;
     const std::string name = std::filesystem::path(stem).filename().string();
     if (!a.overlay_dir.empty())
-      write_file(std::filesystem::path(a.overlay_dir) / (name + ".overlay.png"), render_overlay_png(*frame, detection));
+      write_bytes(std::filesystem::path(a.overlay_dir) / (name + ".overlay.png"), render_overlay_png(*frame, detection));
     if (!a.debug_dir.empty()) {
       // Re-run the first half with a trace: detect() itself keeps no intermediate images.
       OrganizedCloud cloud;

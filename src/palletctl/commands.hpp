@@ -15,6 +15,7 @@ void register_detect(CLI::App& app);      // palletctl detect --box LxW STEM...
 void register_eval(CLI::App& app);        // palletctl eval DIR
 void register_simulate(CLI::App& app);    // palletctl simulate --out DIR -n N (scene simulator)
 void register_roi(CLI::App& app);         // palletctl roi STEM: suggest detection.roi from a frame
+void register_compare(CLI::App& app);     // palletctl compare --config A --config B DIR
 
 void register_grab(CLI::App& app);    // palletctl grab --config FILE -n N --out DIR
 void register_record(CLI::App& app);  // palletctl record --config FILE [--out DIR]

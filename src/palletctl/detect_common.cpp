@@ -1,6 +1,7 @@
 #include "detect_common.hpp"
 
 #include <filesystem>
+#include <fstream>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -76,6 +77,12 @@ DetectSetup make_detect_setup(const std::string& config_path, int recipe, const 
     }
   }
   return setup;
+}
+
+void write_bytes(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  if (!out) spdlog::error("cannot write {}", path.string());
 }
 
 }  // namespace palletd

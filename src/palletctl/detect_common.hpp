@@ -1,6 +1,9 @@
-// Shared by `palletctl detect` and `palletctl eval`: box formats from --box / config, frame stems.
+// Shared by `palletctl detect`, `eval` and `compare`: box formats from --box / config, frame stems,
+// writing output files.
 #pragma once
 
+#include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -26,5 +29,8 @@ struct DetectSetup {
   std::optional<Eigen::Isometry3d> T_base_camera;  ///< from the config, when it has one
 };
 DetectSetup make_detect_setup(const std::string& config_path, int recipe, const std::vector<std::string>& boxes);
+
+/// Writes `bytes` to `path` (an overlay, a debug picture); logs when it cannot.
+void write_bytes(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes);
 
 }  // namespace palletd

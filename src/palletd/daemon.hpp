@@ -19,10 +19,14 @@ struct DaemonOptions {
   std::optional<std::string> bind_address;
   std::optional<int> port;
   std::optional<int> web_port;  ///< serve the status page on this port (enables it)
+  std::optional<int> metrics_port;  ///< serve /metrics on this port (enables the metrics server)
 };
 
 /// Applies the command-line overrides to a loaded config.
 void apply_overrides(const DaemonOptions& options, Config& config);
+
+/// FNV-1a 64 of the file's bytes in hex (the `palletd_config_info` metric); "" when unreadable.
+std::string config_file_hash(const std::string& path);
 
 /// Runs until SIGTERM or SIGINT. Returns the process exit code (0 on a clean stop, 1 when the
 /// service could not start, e.g. the port is taken).

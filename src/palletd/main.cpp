@@ -2,7 +2,7 @@
 //   palletd --config FILE          run (default FILE: the installed /etc/palletd/palletd.yaml)
 //   palletd --check-config FILE    validate only: "FILE: ok" and exit 0, or the error and exit 78
 //   overrides for testing: --replay DIR (replay driver, one frame per trigger, looping),
-//   --bind ADDR, --port N
+//   --bind ADDR, --port N, --web-port N, --metrics-port N
 #include <iostream>
 #include <optional>
 #include <string>
@@ -48,6 +48,10 @@ int main(int argc, char** argv) {
   int web_port = 0;
   auto* web_opt = app.add_option("--web-port", web_port, "serve the status page on this port (overrides web.*)")
                       ->check(CLI::Range(1, 65535));
+  int metrics_port = 0;
+  auto* metrics_opt =
+      app.add_option("--metrics-port", metrics_port, "serve /metrics on this port (overrides metrics.*)")
+          ->check(CLI::Range(1, 65535));
   try {
     app.parse(argc, argv);
   } catch (const CLI::Error& e) {
@@ -67,5 +71,6 @@ int main(int argc, char** argv) {
   if (bind->count() > 0) options.bind_address = bind_address;
   if (port_opt->count() > 0) options.port = port;
   if (web_opt->count() > 0) options.web_port = web_port;
+  if (metrics_opt->count() > 0) options.metrics_port = metrics_port;
   return palletd::start_service(options, std::move(*config));
 }

@@ -15,6 +15,7 @@
 #include "palletd/results/overlay.hpp"
 #include "palletd/frames/recorder.hpp"
 #include "result_record.hpp"
+#include "shadow.hpp"
 
 namespace palletd {
 
@@ -35,6 +36,16 @@ const Recipe* find_recipe(const Config& config, int number) {
   for (const auto& r : config.recipes)
     if (r.number == number) return &r;
   return nullptr;
+}
+
+/// A box of the shadow's result counts as moved beyond this centre distance [mm].
+constexpr double kShadowMovedMm = 5.0;
+
+/// Where the shadow records the frames it disagrees on: a ring beside the recordings, an eighth
+/// of their size.
+std::optional<RecorderOptions> shadow_recording(const Config& config) {
+  if (!config.recording.enabled) return std::nullopt;
+  return RecorderOptions{config.recording.directory + "/shadow", config.recording.max_bytes / 8};
 }
 
 double ms_between(Clock::time_point a, Clock::time_point b) {
@@ -67,6 +78,7 @@ class Service::Impl {
     if (cfg.recording.enabled) {
       recorder_ = std::make_unique<FrameRecorder>(RecorderOptions{cfg.recording.directory, cfg.recording.max_bytes});
     }
+    shadow_ = std::make_unique<ShadowRunner>(cfg.shadow, shadow_recording(cfg), kShadowMovedMm);
     Status bound = server_.start();
     if (!bound) return Error{"modbus: " + bound.error()};
     running_ = true;
@@ -87,6 +99,7 @@ class Service::Impl {
     status_cv_.notify_all();
     if (status_.joinable()) status_.join();
     if (pipeline_.joinable()) pipeline_.join();
+    if (shadow_) shadow_->stop();
     if (acquisition_) acquisition_->stop();
   }
 
@@ -98,6 +111,9 @@ class Service::Impl {
     next->T_base_camera = config.T_base_camera;
     next->pipeline.detection_timeout_ms = config.pipeline.detection_timeout_ms;
     next->logging = config.logging;
+    next->shadow_config = config.shadow_config;
+    next->shadow = config.shadow;
+    if (shadow_) shadow_->set_config(config.shadow);
     std::lock_guard<std::mutex> lock(config_mutex_);
     config_ = std::move(next);
   }
@@ -145,6 +161,14 @@ class Service::Impl {
     h.modbus_connections = server_.stats().open_connections;
     h.recordings = recordings_.load();
     h.recording_failures = recording_failures_.load();
+    if (shadow_) {
+      const ShadowCounters shadow = shadow_->counters();
+      h.shadow_enabled = shadow.enabled;
+      h.shadow_runs = shadow.runs;
+      h.shadow_disagreements = shadow.disagreements;
+      h.shadow_skipped = shadow.skipped;
+      h.last_shadow_difference = shadow.last_difference;
+    }
     {
       std::lock_guard<std::mutex> lock(recording_error_mutex_);
       h.last_recording_error = last_recording_error_;
@@ -153,6 +177,8 @@ class Service::Impl {
   }
 
   modbus::RegisterImage registers() const { return server_.registers(); }
+  modbus::ServerStats modbus_stats() const { return server_.stats(); }
+  std::function<void(const ResultSnapshot&)> result_listener_;  ///< set before start()
 
  private:
   static void mark(std::atomic<Clock::duration::rep>& slot) { slot.store(Clock::now().time_since_epoch().count()); }
@@ -274,6 +300,8 @@ class Service::Impl {
       std::lock_guard<std::mutex> lock(latest_mutex_);
       latest_ = snapshot;
     }
+    if (result_listener_) result_listener_(*snapshot);
+    if (shadow_ && snapshot->frame) shadow_->submit(snapshot);  // a frame came: a detection ran
     spdlog::info("trigger {} (request {}, recipe {}): {} box(es), {} in {:.1f} ms", event.trigger_seq,
                  event.request_id, event.recipe, snapshot->detection.boxes.size(),
                  snapshot->error_text.empty() ? to_string(snapshot->detection.status) : snapshot->error_text,
@@ -344,6 +372,7 @@ class Service::Impl {
   modbus::ModbusServer server_;
   std::unique_ptr<Acquisition> acquisition_;
   std::unique_ptr<FrameRecorder> recorder_;  ///< pipeline thread only
+  std::unique_ptr<ShadowRunner> shadow_;     ///< created by start(); its thread ends with stop()
   DetectionWorkspace workspace_;             ///< pipeline thread only: rays and cloud reused
   std::thread pipeline_;
   std::thread status_;
@@ -370,6 +399,10 @@ Status Service::request_snapshot() { return impl_->request_snapshot(); }
 std::shared_ptr<const ResultSnapshot> Service::latest() const { return impl_->latest(); }
 ServiceHealth Service::health() const { return impl_->health(); }
 modbus::RegisterImage Service::registers() const { return impl_->registers(); }
+modbus::ServerStats Service::modbus_stats() const { return impl_->modbus_stats(); }
+void Service::set_result_listener(std::function<void(const ResultSnapshot&)> listener) {
+  impl_->result_listener_ = std::move(listener);
+}
 
 std::string Service::status_line() const {
   const ServiceHealth h = health();

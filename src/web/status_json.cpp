@@ -73,10 +73,6 @@ const char* result_status_text(std::uint16_t v) {
 
 }  // namespace
 
-
-
-
-
 /// Rows of the control block 0..15 (what the PLC wrote).
 Json control_rows(const modbus::RegisterImage& image) {
   const modbus::ControlRecord ctl = modbus::decode_control(image);
@@ -150,6 +146,20 @@ Json status_rows(const modbus::RegisterImage& image, modbus::WordOrder order) {
   return status;
 }
 
+/// Rows of the Modbus connection block 140..145.
+Json connection_rows(const modbus::RegisterImage& image, modbus::WordOrder order) {
+  const modbus::ConnectionCounters c = modbus::decode_status(image, order).connections;
+  Json rows = Json::array();
+  rows.push_back(row(image, modbus::kRegConnectionsEvicted, 2, "connections evicted", std::to_string(c.evicted),
+                     c.evicted == 0 ? "none since start" : "closed at the cap: more clients poll than max_connections"));
+  rows.push_back(row(image, modbus::kRegConnectionsRefused, 2, "connections refused", std::to_string(c.refused),
+                     "not on modbus.allow, since start"));
+  rows.push_back(row(image, modbus::kRegOpenConnections, 1, "open connections", std::to_string(c.open), "now"));
+  rows.push_back(row(image, modbus::kRegMaxConnections, 1, "connection cap", std::to_string(c.max_connections),
+                     "modbus.max_connections"));
+  return rows;
+}
+
 /// Rows of the result block 200..209 and 530, and of its extension 130..134.
 Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult& res) {
   const modbus::ResultRecord& rec = res.record;
@@ -221,7 +231,9 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
   out["blocks"] = Json::array(
       {Json{{"name", "control"}, {"title", "Control block 0-15 (written by the PLC)"}, {"rows", control}},
        Json{{"name", "status"}, {"title", "Status block 100-129 (read-only)"}, {"rows", status}},
-       Json{{"name", "result"}, {"title", "Result block 200-209, 530 and its extension 130-134 (read-only)"}, {"rows", result}}});
+       Json{{"name", "result"}, {"title", "Result block 200-209, 530 and its extension 130-134 (read-only)"}, {"rows", result}},
+       Json{{"name", "connections"}, {"title", "Modbus connections 140-145 (read-only)"},
+            {"rows", connection_rows(image, order)}}});
   out["boxes"] = boxes;
   return out;
 }
@@ -325,6 +337,11 @@ Json status_json(const ServiceHealth& health, const modbus::RegisterImage& image
                             {"p50", optional_number(figures.latency_p50_ms)},
                             {"p99", optional_number(figures.latency_p99_ms)}};
   j["counters"] = counters;
+  j["shadow"] = {{"enabled", health.shadow_enabled},
+                 {"runs", health.shadow_runs},
+                 {"disagreements", health.shadow_disagreements},
+                 {"skipped", health.shadow_skipped},
+                 {"last_difference", health.last_shadow_difference}};
 
   const int active = st.active_recipe;
   j["recipe"] = recipe_json(find_recipe(recipes, active), active);

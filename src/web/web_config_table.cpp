@@ -26,4 +26,21 @@ const Table<WebConfig>& web_table() {
   return t;
 }
 
+const Table<MetricsConfig>& metrics_table() {
+  static const Table<MetricsConfig> t = {
+      flag("enabled", &MetricsConfig::enabled),
+      within(&MetricsConfig::server,
+             Field<WebOptions>{"bind_address",
+                               [](const Context& ctx, const YAML::Node& node, const std::string& path, WebOptions& out) {
+                                 std::string v = read_string(ctx, node, path);
+                                 if (auto e = check_address(v, false); !e.empty()) fail(ctx, node, path, e);
+                                 out.bind_address = std::move(v);
+                               },
+                               compare_member(&WebOptions::bind_address), list_leaf<WebOptions>}),
+      within(&MetricsConfig::server, integer("port", &WebOptions::port, 1, 65535)),
+      within(&MetricsConfig::server, texts("allowed_hosts", &WebOptions::allowed_hosts)),
+  };
+  return t;
+}
+
 }  // namespace palletd

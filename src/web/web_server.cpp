@@ -32,6 +32,9 @@ extern const char* const kStatusPageHtml;  // status_page.cpp (generated from st
 namespace {
 
 namespace fs = std::filesystem;
+
+/// The Prometheus text exposition format's content type.
+constexpr const char* kMetricsContentType = "text/plain; version=0.0.4; charset=utf-8";
 using web::Json;
 
 struct FrameFiles {
@@ -147,7 +150,8 @@ class WebServer::Impl {
     // httplib's stop() only works once the loop runs: wait for it (bounded).
     for (int i = 0; i < 500 && !server_.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
     sampler_thread_ = std::thread([this] { sample_loop(); });
-    log("status page on http://" + options_.bind_address + ":" + std::to_string(port_) + "/");
+    log(std::string(options_.status_page ? "status page" : "metrics") + " on http://" + options_.bind_address + ":" +
+        std::to_string(port_) + (options_.status_page ? "/" : "/metrics"));
     return {};
   }
 
@@ -243,6 +247,11 @@ class WebServer::Impl {
       return httplib::Server::HandlerResponse::Handled;
     };
     server_.set_pre_routing_handler(check_host);
+    server_.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+      if (!source_.metrics) return send_error(res, 404, "this server has no metrics");
+      res.set_content(source_.metrics(), kMetricsContentType);
+    });
+    if (!options_.status_page) return;
     server_.Get("/", [this](const httplib::Request&, httplib::Response& res) {
       res.set_header("Content-Security-Policy",
                      "default-src 'self'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; img-src 'self'");

@@ -1,5 +1,6 @@
 // detect() on what a cell shows besides a full layer: the empty pallet, a slip sheet, a stepped
 // pallet, and the layer's height above the pallet (simulated scenes, docs/simulator.md).
+#include <algorithm>
 #include <cmath>
 
 #include <catch2/catch.hpp>
@@ -104,6 +105,9 @@ TEST_CASE("layers left from the pallet's height and the boxes' height", "[cell][
   CHECK(off.height_off_layers);
   CHECK(off.ambiguous);
   CHECK(off.ambiguity_reason.find("whole number") != std::string::npos);
+  CHECK(std::count(off.ambiguity_kinds.begin(), off.ambiguity_kinds.end(), AmbiguityKind::kHeightOffLayers) == 1);
+  CHECK(std::count(three.ambiguity_kinds.begin(), three.ambiguity_kinds.end(), AmbiguityKind::kHeightOffLayers) == 0);
+  CHECK(three.ambiguous == !three.ambiguity_kinds.empty());
 }
 
 TEST_CASE("a slip sheet is never an unflagged layout, at a fine pitch it is a slip sheet", "[cell][sheet]") {

@@ -1,6 +1,7 @@
 // Configuration errors: each kind with file:line:column and the key path.
 #include <catch2/catch.hpp>
 #include <algorithm>
+#include <fstream>
 
 #include "palletd/config/config.hpp"
 #include "png_util.hpp"
@@ -151,6 +152,59 @@ TEST_CASE("config error: addresses") {
   const Failure prefix = failure_of("modbus:\n  allow:\n    - 10.0.0.0/8\n    - 10.1.0.0/33\n");
   CHECK(prefix.line == 4);
   CHECK(prefix.key == "modbus.allow[1]");
+}
+
+TEST_CASE("config: the metrics section, and its errors with line and key") {
+  const Config c = parse_config("metrics:\n  enabled: true\n  bind_address: 10.20.1.11\n  port: 9500\n"
+                                "  allowed_hosts: [cell7.plant.example]\n", "metrics.yaml");
+  CHECK(c.metrics.enabled);
+  CHECK(c.metrics.server.bind_address == "10.20.1.11");
+  CHECK(c.metrics.server.port == 9500);
+  CHECK(c.metrics.server.allowed_hosts == std::vector<std::string>{"cell7.plant.example"});
+  CHECK_FALSE(c.metrics.server.status_page);
+  CHECK(Config{}.metrics.server.port == 9482);
+  CHECK_FALSE(Config{}.metrics.enabled);
+
+  const Failure bind = failure_of("metrics:\n  enabled: true\n  bind_address: monitoring-net\n");
+  CHECK(bind.line == 3);
+  CHECK(bind.key == "metrics.bind_address");
+  const Failure port = failure_of("metrics:\n  port: 70000\n");
+  CHECK(port.line == 2);
+  CHECK(port.key == "metrics.port");
+  const Failure unknown = failure_of("metrics:\n  path: /prom\n");
+  CHECK(unknown.line == 2);
+  CHECK_THAT(unknown.what, Contains("path"));
+}
+
+TEST_CASE("config: shadow_config loads a second file, and its errors name that file") {
+  const std::string dir = std::string(PALLETD_BINARY_DIR) + "/tests/io";
+  const auto write = [](const std::string& path, const std::string& text) {
+    std::ofstream(path) << text;
+  };
+  write(dir + "/shadow_ok.yaml", "formats:\n  - {name: a, long_mm: 400, short_mm: 300}\n"
+                                 "recipes:\n  - {number: 1, name: a, formats: [a]}\n");
+  const Config c = parse_config("shadow_config: shadow_ok.yaml\n", "live.yaml", dir);
+  CHECK(c.shadow_config == dir + "/shadow_ok.yaml");
+  REQUIRE(c.shadow);
+  CHECK(c.shadow->recipes.size() == 1);
+  CHECK_FALSE(parse_config("shadow_config: null\n", "live.yaml", dir).shadow);
+
+  write(dir + "/shadow_bad.yaml", "formats:\n  - {name: a, long_mm: 400, short_mm: -3}\n");
+  try {
+    (void)parse_config("shadow_config: shadow_bad.yaml\n", "live.yaml", dir);
+    FAIL("no error for a bad shadow configuration");
+  } catch (const ConfigError& e) {
+    CHECK_THAT(std::string(e.what()), Contains("shadow_bad.yaml:2"));
+  }
+  write(dir + "/shadow_nested.yaml", "shadow_config: shadow_ok.yaml\n");
+  const Failure nested = failure_of("\nshadow_config: " + dir + "/shadow_nested.yaml\n");
+  CHECK(nested.line == 2);
+  CHECK(nested.key == "shadow_config");
+  CHECK_THAT(nested.what, Contains("shadow configuration of its own"));
+  const Failure missing = failure_of("shadow_config: " + dir + "/no_such_shadow.yaml\n");
+  CHECK_THAT(missing.what, Contains("no_such_shadow.yaml"));
+  const Failure device = failure_of("shadow_config: /dev/zero\n");  // would never end
+  CHECK_THAT(device.what, Contains("/dev/zero") && Contains("not a regular file"));
 }
 
 TEST_CASE("config error: box formats") {

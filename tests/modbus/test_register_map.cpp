@@ -237,3 +237,29 @@ TEST_CASE("the camera fault counters follow the status block at 118..129, 32 bit
   // Decoded in the wrong order, the counters read differently (the order matters).
   CHECK_FALSE(decode_status(low, WordOrder::kHighWordFirst).camera_faults == f);
 }
+
+TEST_CASE("the Modbus connection block 140..145: evictions and refusals as uint32, open and cap",
+          "[modbus][register_map]") {
+  CHECK(kConnectionStart >= kResultExtStart + kResultExtCount);  // after the result extension
+  CHECK(kConnectionStart + kConnectionCount <= kResultStart);
+  StatusRecord s;
+  s.connections.evicted = 0x00020003u;
+  s.connections.refused = 9;
+  s.connections.open = 16;
+  s.connections.max_connections = 16;
+  for (const WordOrder order : {WordOrder::kHighWordFirst, WordOrder::kLowWordFirst}) {
+    RegisterImage image{};
+    encode_status(s, order, image);
+    const bool high_first = order == WordOrder::kHighWordFirst;
+    CHECK(image[kRegConnectionsEvicted] == (high_first ? 0x0002 : 0x0003));
+    CHECK(image[kRegConnectionsEvicted + 1] == (high_first ? 0x0003 : 0x0002));
+    CHECK(image[kRegConnectionsRefused + (high_first ? 1 : 0)] == 9);
+    CHECK(image[kRegOpenConnections] == 16);
+    CHECK(image[kRegMaxConnections] == 16);
+    CHECK(image[kConnectionStart + kConnectionCount] == 0);  // the gap after the block stays 0
+    CHECK(decode_status(image, order).connections == s.connections);
+    // A result does not clear the connection block.
+    clear_result(image);
+    CHECK(image[kRegMaxConnections] == 16);
+  }
+}

@@ -134,6 +134,24 @@ TEST_CASE("quantity limits, address ranges and unknown functions get their excep
   CHECK(exception_of(ask({0x11})) == 1);
   CHECK(exception_of(ask({0x2B, 0x0E, 0x01, 0x00})) == 1);
   CHECK(exception_of(ask({3, 0, 0})) == 3);  // truncated PDU
+  // Function codes with the top bit set: exception 01, the function byte kept as 0x80 | fc (not
+  // wrapped to fc + 0x80 in 8 bits, which would read as an ordinary reply to fc - 0x80).
+  for (const std::uint8_t fc : {std::uint8_t{0x80}, std::uint8_t{0x83}, std::uint8_t{0x90},
+                                std::uint8_t{0xFF}}) {
+    const auto reply = ask({fc, 0, 0, 0, 1});
+    REQUIRE(reply.size() == 9);
+    CHECK(reply[4] == 0);
+    CHECK(reply[5] == 3);    // length: unit id + function + code
+    CHECK(reply[6] == 1);    // unit id echoed
+    CHECK(reply[7] == fc);   // 0x80 | fc
+    CHECK(reply[8] == 1);    // illegal function
+  }
+  CHECK(ask({3, 0, 108, 0, 1}).size() == 11);  // the connection still answers
+  // Counted per code: 01 for 0x07, 0x11, 0x2B and the four above (the copy follows within a loop).
+  for (int i = 0; i < 100 && s.server.stats().exceptions_by_code[1] < 7; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  CHECK(s.server.stats().exceptions_by_code[1] == 7);
+  CHECK(s.server.stats().exceptions_by_code[3] >= 5);
 
   // Writes outside the control block change nothing.
   std::vector<std::uint8_t> fc16 = {16, 0, 10, 0, 7, 14};

@@ -1,8 +1,13 @@
 // The Modbus TCP server's connections over loopback: the connection cap, allow and read-only
 // lists, idle timeouts, IPv6, consistent reads while results are published, start and stop.
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <memory>
+#include <mutex>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "raw_client.hpp"
 #include "server_fixture.hpp"
@@ -14,6 +19,12 @@ using std::chrono::milliseconds;
 TEST_CASE("at the connection cap the longest idle connection is closed", "[modbus][server]") {
   ServerOptions o = loopback_options();
   o.max_connections = 2;
+  auto log_lines = std::make_shared<std::vector<std::string>>();
+  auto log_mutex = std::make_shared<std::mutex>();
+  o.log = [log_lines, log_mutex](const std::string& line) {
+    std::lock_guard<std::mutex> lock(*log_mutex);
+    log_lines->push_back(line);
+  };
   Server s(o);
   const auto ping = [](RawClient& c, std::uint16_t tid) {
     if (!c.send(RawClient::frame(tid, 1, RawClient::read_pdu(3, 108, 1)))) return false;
@@ -33,6 +44,24 @@ TEST_CASE("at the connection cap the longest idle connection is closed", "[modbu
   CHECK(ping(c3, 6));
   CHECK(s.server.stats().connections_evicted == 1);
   CHECK(s.server.stats().open_connections == 2);
+
+  // More evictions from the same address (each new connection stays open, so the next one finds
+  // the cap reached): counted in 140-141, logged once.
+  std::vector<std::unique_ptr<RawClient>> extras;
+  for (std::uint16_t i = 0; i < 5; ++i) {
+    extras.push_back(std::make_unique<RawClient>("127.0.0.1", s.port()));
+    REQUIRE(ping(*extras.back(), static_cast<std::uint16_t>(10 + i)));
+  }
+  const StatusRecord status = decode_status(s.server.registers(), HandshakeOptions{}.word_order);
+  CHECK(status.connections.evicted == 6);
+  CHECK(status.connections.refused == 0);
+  CHECK(status.connections.max_connections == 2);
+  CHECK(status.connections.open == 2);
+  std::lock_guard<std::mutex> lock(*log_mutex);
+  const auto cap_lines = std::count_if(log_lines->begin(), log_lines->end(), [](const std::string& l) {
+    return l.find("connection cap") != std::string::npos;
+  });
+  CHECK(cap_lines == 1);
 }
 
 TEST_CASE("allow list refuses other peers, read-only peers cannot write", "[modbus][server]") {

@@ -252,3 +252,54 @@ TEST_CASE("SaveSnapshot stores the next triggered frame with its result and over
   for (int i = 0; i < 100 && count(".depth.png") < 2; ++i) std::this_thread::sleep_for(20ms);
   CHECK(count(".depth.png") == 2);
 }
+
+TEST_CASE("a shadow configuration runs after every result, counts where it differs and records those frames") {
+  const auto names = bundled_stems(1);
+  TempFrames frames(names);
+  palletd::Config config = demo_config(frames.dir);
+  const fs::path recordings = frames.dir / "recordings";
+  config.recording.enabled = true;
+  config.recording.directory = recordings.string();
+  // The same recipe number with the other format: the shadow's layout differs from the live one.
+  const int recipe = config.recipes.front().number;
+  auto shadow = std::make_shared<palletd::Config>(config);
+  shadow->recipes.front().formats = {config.recipes[1].formats.front()};
+  REQUIRE(shadow->recipes.front().formats != config.recipes.front().formats);
+  config.shadow = shadow;
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  CHECK(service.health().shadow_enabled);
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
+  REQUIRE(plc.connect().ok());
+  const auto wait_runs = [&service](std::uint64_t runs) {
+    for (int i = 0; i < 1000 && service.health().shadow_runs + service.health().shadow_skipped < runs; ++i)
+      std::this_thread::sleep_for(10ms);
+  };
+  REQUIRE(plc.trigger(static_cast<std::uint16_t>(recipe), 1, 10s).ok());
+  wait_runs(1);
+  palletd::ServiceHealth h = service.health();
+  CHECK(h.shadow_runs == 1);
+  CHECK(h.shadow_disagreements == 1);
+  CHECK(h.last_shadow_difference.rfind("trigger ", 0) == 0);
+  const auto recorded = palletd::list_frame_stems((recordings / "shadow").string());
+  REQUIRE(recorded.ok());
+  CHECK(recorded->size() == 1);
+
+  // The live configuration as the shadow: no disagreement. A recipe the shadow lacks is skipped.
+  palletd::Config same = config;
+  same.shadow = std::make_shared<palletd::Config>(demo_config(frames.dir));
+  service.reload(same);
+  REQUIRE(plc.trigger(static_cast<std::uint16_t>(recipe), 2, 10s).ok());
+  wait_runs(2);
+  h = service.health();
+  CHECK(h.shadow_runs == 2);
+  CHECK(h.shadow_disagreements == 1);
+  auto no_recipes = std::make_shared<palletd::Config>(demo_config(frames.dir));
+  no_recipes->recipes.clear();
+  same.shadow = no_recipes;
+  service.reload(same);
+  REQUIRE(plc.trigger(static_cast<std::uint16_t>(recipe), 3, 10s).ok());
+  wait_runs(3);
+  CHECK(service.health().shadow_skipped == 1);
+  service.stop();
+}

@@ -207,3 +207,33 @@ TEST_CASE("palletctl simulate, roi and eval on cell scenes: a region per cell fr
   CHECK(detect.exit_code == 0);
   CHECK_THAT(detect.out, Contains("\"status\":\"empty\""));
 }
+
+TEST_CASE("palletctl compare lists the frames whose result differs between two configurations") {
+  TempDir dir;
+  const std::string formats = "formats:\n  - {name: 600x400, long_mm: 600, short_mm: 400}\n"
+                              "  - {name: 400x300, long_mm: 400, short_mm: 300}\n";
+  const std::string a = dir.file("a.yaml"), b = dir.file("b.yaml");
+  write(a, formats + "recipes:\n  - {number: 1, name: r, formats: [600x400]}\n");
+  write(b, formats + "recipes:\n  - {number: 1, name: r, formats: [400x300]}\n");
+  const std::string frame = kSource + "/tests/data/01_block_600x400_o3d303";
+  const std::string overlays = dir.file("overlays");
+
+  const Run same = run("src/palletctl/palletctl", {"compare", "--config", a, "--config", a, "--recipe", "1", frame});
+  CHECK(same.exit_code == 0);
+  CHECK(same.out.empty());
+
+  const Run differ = run("src/palletctl/palletctl", {"compare", "--config", a, "--config", b, "--recipe", "1",
+                                                     "--overlay", overlays, "--json", frame});
+  CHECK(differ.exit_code == 1);
+  CHECK_THAT(differ.out, Contains("\"frame\":\"" + frame + "\"") && Contains("\"difference\""));
+  CHECK(fs::file_size(overlays + "/01_block_600x400_o3d303.a.overlay.png") > 0);
+  CHECK(fs::file_size(overlays + "/01_block_600x400_o3d303.b.overlay.png") > 0);
+
+  const Run missing = run("src/palletctl/palletctl", {"compare", "--config", a, "--config", b, "--recipe", "1",
+                                                      dir.file("no_such_frame")});
+  CHECK(missing.exit_code == 2);
+  CHECK_THAT(missing.err, Contains("no_such_frame"));
+  const Run one = run("src/palletctl/palletctl", {"compare", "--config", a, "--recipe", "1", frame});
+  CHECK(one.exit_code == 2);
+  CHECK_THAT(one.err, Contains("--config twice"));
+}

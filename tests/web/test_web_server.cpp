@@ -124,7 +124,13 @@ TEST_CASE("/api/status reports state, counters, camera, recipe and the decoded r
   CHECK(j["last_result"]["boxes"] == f.first().detection.boxes.size());
 
   const Json& regs = j["registers"];
-  REQUIRE(regs["blocks"].size() == 3);
+  REQUIRE(regs["blocks"].size() == 4);
+  const Json& connections = regs["blocks"][3];
+  CHECK(connections["name"] == "connections");
+  REQUIRE(connections["rows"].size() == 4);
+  CHECK(connections["rows"][0]["address"] == "140-141");
+  CHECK(connections["rows"][3]["address"] == "145");
+  CHECK(connections["rows"][3]["name"] == "connection cap");
   const Json& status_rows = regs["blocks"][1]["rows"];
   REQUIRE(status_rows.size() == 22);  // 100..129: 16 rows, then the six camera fault counters
   CHECK(status_rows[0]["address"] == "100");

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -56,6 +57,12 @@ struct Config {
   LoggingConfig logging;
   RecordingConfig recording;
   WebConfig web;
+  MetricsConfig metrics;
+  /// `shadow_config`: a second configuration the daemon runs on every triggered frame after the
+  /// live result, to count where it would differ (its detection, formats, recipes and
+  /// camera_to_base are used). The resolved path ("" = none) and the file as loaded.
+  std::string shadow_config;
+  std::shared_ptr<const Config> shadow;
 };
 
 

@@ -96,6 +96,8 @@ struct Detection {
   InteriorSeams interior_seams;
   /// Why `ambiguous` is set: which alternatives tie and on what evidence; empty when not.
   std::string ambiguity_reason;
+  /// The same as categories, one per cause (several may hold); empty when not ambiguous.
+  std::vector<AmbiguityKind> ambiguity_kinds;
   /// The top layer's height above the pallet's top (PalletParams::top_z_m and camera_to_base) [m].
   std::optional<double> height_above_pallet_m;
   /// Layers on the pallet counting the top one: the height above the pallet in box heights (the

@@ -14,4 +14,12 @@ const char* to_string(DetectionStatus status);
 /// slip_sheet are answers.
 bool is_failure(DetectionStatus status);
 
+/// Why a layout is flagged ambiguous, as a category (Detection::ambiguity_reason says it in words):
+/// near-equal layouts the seams cannot separate, a search that ended at its budget, a part of the
+/// layer no box explains, a level check that doubts the layout (a slip sheet the pixel pitch
+/// cannot tell, boxes over deck slots), a height that is no whole number of layers.
+enum class AmbiguityKind { kTiedLayouts, kSearchBudget, kUnexplainedArea, kLevelCheck, kHeightOffLayers };
+/// "tied_layouts", "search_budget", "unexplained_area", "level_check", "height_off_layers".
+const char* to_string(AmbiguityKind kind);
+
 }  // namespace palletd

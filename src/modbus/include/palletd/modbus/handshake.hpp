@@ -71,6 +71,8 @@ class Handshake {
   /// The service finished a detection (or failed one).
   void on_result(const ResultRecord& result, Clock::time_point now);
   void on_service_status(const ServiceStatus& status);
+  /// The server's connection counters (registers 140..145); changes the image only when they differ.
+  void on_connections(const ConnectionCounters& connections);
   /// Advances the heartbeat and the PLC heartbeat watch.
   void tick(Clock::time_point now);
   /// When tick() next has something to do.
@@ -83,6 +85,9 @@ class Handshake {
   [[nodiscard]] std::uint16_t status_word() const;
   [[nodiscard]] bool busy() const { return busy_; }
   [[nodiscard]] std::uint16_t result_id() const { return result_id_; }
+  /// Triggers refused while Busy or not Ready since start (register 112 saturates at 65535).
+  [[nodiscard]] std::uint64_t missed_total() const { return missed_total_; }
+  [[nodiscard]] bool plc_heartbeat_lost() const { return plc_heartbeat_lost_; }
 
  private:
   void refresh();
@@ -91,6 +96,7 @@ class Handshake {
   RegisterImage image_{};
   std::uint64_t version_ = 0;
   ServiceStatus service_;
+  ConnectionCounters connections_;
 
   std::uint16_t prev_control_word_ = 0;
   bool busy_ = false;
@@ -103,6 +109,7 @@ class Handshake {
   ErrorCode result_error_code_ = ErrorCode::kNone;
   std::uint16_t result_error_detail_ = 0;
   std::uint16_t missed_count_ = 0;
+  std::uint64_t missed_total_ = 0;
   std::uint16_t result_id_ = 0;
   std::uint16_t last_request_id_ = 0;
   std::uint16_t active_recipe_ = 0;

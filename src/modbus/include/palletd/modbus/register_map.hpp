@@ -62,6 +62,13 @@ inline constexpr std::uint16_t kRegResultDetail = 130;      ///< ResultDetail
 inline constexpr std::uint16_t kRegLayerInfoFlags = 131;    ///< kLayer* bits: which of 132..134 are known
 inline constexpr std::uint16_t kRegHeightAbovePallet = 132; ///< 132-133, int32 0.1 mm
 inline constexpr std::uint16_t kRegLayersRemaining = 134;
+// Modbus connection block 140..145, read-only: the server's own connection counters
+inline constexpr std::uint16_t kConnectionStart = 140;
+inline constexpr std::uint16_t kConnectionCount = 6;        ///< 140..145
+inline constexpr std::uint16_t kRegConnectionsEvicted = 140;  ///< 140-141
+inline constexpr std::uint16_t kRegConnectionsRefused = 142;  ///< 142-143
+inline constexpr std::uint16_t kRegOpenConnections = 144;
+inline constexpr std::uint16_t kRegMaxConnections = 145;
 // result block
 inline constexpr std::uint16_t kRegResultId = 200;
 inline constexpr std::uint16_t kRegResultRequestId = 201;
@@ -189,7 +196,21 @@ struct CameraFaultCounters {
   }
 };
 
-/// The status block's content in engineering units (what registers 100..129 show).
+/// The Modbus server's connection counters since start (registers 140..145).
+struct ConnectionCounters {
+  std::uint32_t evicted = 0;          ///< closed for a newer connection at the cap
+  std::uint32_t refused = 0;          ///< refused by the allow list
+  std::uint16_t open = 0;             ///< open now
+  std::uint16_t max_connections = 0;  ///< the configured cap (`modbus.max_connections`)
+
+  friend bool operator==(const ConnectionCounters& a, const ConnectionCounters& b) {
+    return a.evicted == b.evicted && a.refused == b.refused && a.open == b.open &&
+           a.max_connections == b.max_connections;
+  }
+  friend bool operator!=(const ConnectionCounters& a, const ConnectionCounters& b) { return !(a == b); }
+};
+
+/// The status block's content in engineering units (what registers 100..129 and 140..145 show).
 struct StatusRecord {
   std::uint16_t status_word = 0;  ///< kSt* bits
   ErrorCode error = ErrorCode::kNone;
@@ -206,6 +227,7 @@ struct StatusRecord {
   std::uint32_t frames_grabbed = 0;
   std::uint16_t camera_reconnects = 0;
   CameraFaultCounters camera_faults;  ///< 118..129
+  ConnectionCounters connections;     ///< 140..145
 };
 
 /// The PLC's control block decoded.
@@ -231,7 +253,7 @@ void put_i32(std::uint16_t* dst, std::int32_t value, WordOrder order);
 std::int32_t get_i32(const std::uint16_t* src, WordOrder order);
 
 // ---- blocks ----
-/// Writes registers 100..129.
+/// Writes registers 100..129 and 140..145.
 void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& image);
 /// Writes registers 200..530 with `result_id` in 200 and 530 (unused box slots zeroed) and the
 /// result extension 130..139.

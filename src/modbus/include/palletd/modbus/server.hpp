@@ -11,6 +11,7 @@
 // thread between two requests, so a reader never sees a half-written result.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -46,6 +47,9 @@ struct ServerStats {
   std::uint64_t connections_idle_closed = 0;
   std::uint64_t requests = 0;             ///< complete frames handled (answered or dropped)
   std::uint64_t exceptions = 0;           ///< exception responses sent
+  std::array<std::uint64_t, 16> exceptions_by_code{};  ///< exception responses per code (01..0B)
+  std::uint64_t missed_triggers = 0;      ///< triggers refused while Busy or not Ready (not saturated)
+  bool plc_heartbeat_lost = false;        ///< the PLC heartbeat watch has fired (error 6)
   std::uint64_t frames_dropped = 0;       ///< protocol id != 0
   std::uint64_t events_dropped = 0;       ///< queue overflow
   std::size_t open_connections = 0;

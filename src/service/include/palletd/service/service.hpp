@@ -14,12 +14,14 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
 #include "palletd/config/config.hpp"
 #include "palletd/core/expected.hpp"
 #include "palletd/modbus/register_map.hpp"
+#include "palletd/modbus/server.hpp"
 #include "palletd/status/snapshot.hpp"
 
 namespace palletd {
@@ -50,6 +52,13 @@ class Service {
   [[nodiscard]] std::string status_line() const;
   /// The Modbus register image as the PLC reads it.
   [[nodiscard]] modbus::RegisterImage registers() const;
+  /// The Modbus server's connection, request and exception counters.
+  [[nodiscard]] modbus::ServerStats modbus_stats() const;
+
+  /// Called on the pipeline thread with every result right after it is published (the metrics
+  /// count results with it). Set it before start(); it must return within microseconds and not
+  /// throw.
+  void set_result_listener(std::function<void(const ResultSnapshot&)> listener);
 
  private:
   class Impl;

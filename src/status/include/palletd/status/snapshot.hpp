@@ -49,6 +49,11 @@ struct ServiceHealth {
   std::uint64_t recordings = 0;          ///< frames recorded since start
   std::uint64_t recording_failures = 0;  ///< recordings that failed (disk full, read-only, ...)
   std::string last_recording_error;      ///< "" when the last recording succeeded
+  bool shadow_enabled = false;              ///< a shadow configuration runs (`shadow_config`)
+  std::uint64_t shadow_runs = 0;            ///< frames the shadow configuration detected
+  std::uint64_t shadow_disagreements = 0;   ///< of those, results that differ from the live one
+  std::uint64_t shadow_skipped = 0;         ///< frames not run (shadow busy, recipe missing)
+  std::string last_shadow_difference;       ///< "trigger 12: boxes 12 -> 11"; "" before the first
 };
 
 }  // namespace palletd

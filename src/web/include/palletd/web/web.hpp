@@ -11,6 +11,8 @@
 //   GET  /api/frame/meta.json     ... STEM.json, so a support engineer can replay the frame
 //   GET  /api/frame/detection.json  the detection line of that frame (as the recorder stores it)
 //   POST /api/snapshot            asks the service to store the next frame (403 unless allowed)
+//   GET  /metrics                 the Prometheus text format (StatusSource::metrics; 404 without)
+// With WebOptions::status_page false it serves /metrics alone (the `metrics:` section's server).
 //
 // The server never blocks the service: it pulls snapshots through StatusSource (all callbacks
 // must be thread-safe) and renders overlays and frame files lazily, once per snapshot.
@@ -43,6 +45,8 @@ struct WebOptions {
   /// naming another host are refused (403): a foreign page cannot read the status through DNS
   /// rebinding.
   std::vector<std::string> allowed_hosts;
+  /// false: only GET /metrics (and 404 for the rest): the metrics server of the `metrics:` section.
+  bool status_page = true;
   /// Optional log sink (start/stop, refused requests), called from server threads.
   std::function<void(const std::string&)> log;
 };
@@ -52,6 +56,18 @@ struct WebOptions {
 struct WebConfig {
   bool enabled = false;
   WebOptions server;
+};
+
+/// The `metrics:` section: GET /metrics on a server of its own, for when the status page is off
+/// or must not be reachable from where Prometheus scrapes. Same host rules as the page.
+struct MetricsConfig {
+  bool enabled = false;
+  WebOptions server = [] {
+    WebOptions o;
+    o.port = 9482;
+    o.status_page = false;
+    return o;
+  }();
 };
 
 /// A recipe as the page shows it: number, name and its box formats (index = DetectedBox::format).
@@ -73,6 +89,8 @@ struct StatusSource {
   /// service cannot; POST /api/snapshot then answers 501.
   std::function<Status()> request_snapshot;
   modbus::WordOrder word_order = modbus::WordOrder::kHighWordFirst;  ///< of 32-bit registers
+  /// Optional: the Prometheus text for GET /metrics (Metrics::render()). Empty = 404.
+  std::function<std::string()> metrics;
 };
 
 class WebServer {

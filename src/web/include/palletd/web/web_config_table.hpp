@@ -9,5 +9,7 @@ namespace palletd {
 
 /// The `web:` section: whether the status page runs and its server's options.
 const config_table::Table<WebConfig>& web_table();
+/// The `metrics:` section: enabled, bind_address, port, allowed_hosts.
+const config_table::Table<MetricsConfig>& metrics_table();
 
 }  // namespace palletd
