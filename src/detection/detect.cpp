@@ -62,6 +62,20 @@ std::string frame_problem(const Frame& frame) {
   return {};
 }
 
+/// The most boxes one layer may hold: a 1.2 m x 1.2 m layer of 50 mm cartons. The stages after
+/// the budgeted search (ranking, completion, the joint refinement) grow with the box count; a
+/// format entered in the wrong unit (10 x 5 mm) or a layer far larger than a pallet would hold
+/// thousands and take seconds.
+constexpr double kMaxBoxesPerLayer = 600.0;
+
+/// Why the layer cannot be laid out in bounded time with these formats; "" when it can.
+std::string too_many_boxes(double layer_area_m2, double smallest_box_m2) {
+  if (!(layer_area_m2 / smallest_box_m2 > kMaxBoxesPerLayer)) return {};
+  return "the layer (" + std::to_string(layer_area_m2) + " m2) would hold more than " +
+         std::to_string(static_cast<int>(kMaxBoxesPerLayer)) +
+         " boxes of the smallest format: check the formats' sizes (millimetres) and the region of interest";
+}
+
 /// Why the layout search flagged its answer, as a sentence for the operator and a category.
 std::pair<std::string, AmbiguityKind> ambiguity_reason(const LayoutResult& layout) {
   if (!layout.runner_up.empty())
@@ -141,6 +155,8 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   if (std::optional<LevelVerdict> empty = empty_level(frame, out.layer, formats, params)) return without_boxes(*empty);
 
   // Stages 6-7: layout search with seam evidence, refinement; then what the level is.
+  if (std::string problem = too_many_boxes(out.layer_area_m2, smallest_box_m2); !problem.empty())
+    return finish(DetectionStatus::kNoLayout, problem);
   t0 = Clock::now();
   const LayoutResult layout = solve_layout(frame, cloud, out.layer, formats, params.layout);
   out.timing_ms["layout"] = ms_since(t0);

@@ -277,3 +277,15 @@ TEST_CASE("cartons built over their format: the format found, the measured size 
   const Detection held = detect(f.frame, formats, nominal);
   CHECK(worst_error_m(held) > worst_error_m(d));
 }
+
+TEST_CASE("a format a layer would hold thousands of is refused before the layout, in bounded time",
+          "[cell][formats]") {
+  const sim::SimulatedFrame f = render_family(sim::SceneFamily::kIsolated, "o3d303", 7);
+  std::vector<BoxFormat> formats = formats_of(f);
+  formats.push_back({0.010, 0.005, "10x5 (mm entered as cm)"});  // found by fuzz_detection: seconds of layout
+  const Detection d = detect(f.frame, formats, DetectionParams{});
+  CHECK(d.status == DetectionStatus::kNoLayout);
+  CHECK(d.message.find("more than 600 boxes") != std::string::npos);
+  CHECK(d.boxes.empty());
+  CHECK(d.timing_ms.count("layout") == 0);  // the search never started
+}
