@@ -154,4 +154,31 @@ const Table<RecordingConfig>& recording_table() {
   return t;
 }
 
+namespace {
+
+const Table<DepthNoiseModel>& noise_model_table() {
+  static const Table<DepthNoiseModel> t = {
+      number("sigma_mm_at_1m", &DepthNoiseModel::sigma_mm_at_1m, Range::closed(0.0, 100.0)),
+      number("exponent", &DepthNoiseModel::exponent, Range::closed(0.0, 4.0)),
+  };
+  return t;
+}
+
+}  // namespace
+
+const Table<HealthConfig>& health_table() {
+  static const Table<HealthConfig> t = {
+      integer("window_frames", &HealthConfig::window_frames, 1, 10000),
+      number("max_invalid_fraction", &HealthConfig::max_invalid_fraction, Range::closed(0.0, 1.0)),
+      number("max_flying_fraction", &HealthConfig::max_flying_fraction, Range::closed(0.0, 1.0)),
+      number("max_saturated_fraction", &HealthConfig::max_saturated_fraction, Range::closed(0.0, 1.0)),
+      number("max_noise_ratio", &HealthConfig::max_noise_ratio, Range::positive(100.0)),
+      section("noise_model", &HealthConfig::noise_model, noise_model_table),
+      file_path("drift_reference", &HealthConfig::drift_reference),
+      number("max_drift_mm", &HealthConfig::max_drift_mm, Range::positive(10000.0)),
+      number("max_drift_deg", &HealthConfig::max_drift_deg, Range::positive(180.0)),
+  };
+  return t;
+}
+
 }  // namespace palletd::config_detail

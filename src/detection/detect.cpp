@@ -103,13 +103,20 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
                  DetectionWorkspace& workspace) {
   const auto t_start = Clock::now();
   Detection out;
+  bool readable = false;
   auto finish = [&](DetectionStatus status, std::string message) {
     out.status = status;
     out.message = std::move(message);
+    if (readable) {  // Stage 9: the cell's health, whatever became of the layer.
+      const auto t_health = Clock::now();
+      out.health = measure_frame_health(frame, params.roi ? &*params.roi : nullptr, out.layer, params.noise_model);
+      out.timing_ms["health"] = ms_since(t_health);
+    }
     out.timing_ms["total"] = ms_since(t_start);
     return out;
   };
   if (std::string problem = frame_problem(frame); !problem.empty()) return finish(DetectionStatus::kBadFrame, problem);
+  readable = true;
   if (std::string problem = box_formats_problem(formats); !problem.empty())
     return finish(DetectionStatus::kNoLayout, problem);
 

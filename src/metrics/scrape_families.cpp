@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
+#include <optional>
 #include <utility>
 
 namespace palletd {
@@ -41,6 +43,43 @@ std::string code_label(std::size_t code) {
   return text;
 }
 
+/// The health window's means (NaN until a frame measured them, like the ratio without a noise
+/// model), its warnings and the drift (NaN while not measured).
+void append_cell_health_families(const CellHealth& c, std::vector<MetricFamily>& out) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::pair<const char*, const std::optional<double>*> ratios[] = {
+      {"invalid", &c.invalid_fraction}, {"flying", &c.flying_fraction}, {"saturated", &c.saturated_fraction}};
+  MetricFamily pixels{"palletd_health_pixel_ratio",
+                      "Mean share of pixels over the health window: invalid (no depth, of the region of "
+                      "interest), flying (mixed, at the layer's edges), saturated",
+                      MetricType::Gauge,
+                      {}};
+  for (const auto& [kind, value] : ratios) pixels.metric.push_back(gauge_value(value->value_or(nan), {{"kind", kind}}));
+  out.push_back(std::move(pixels));
+  add_gauge(out, "palletd_health_plane_noise_meters", "Mean robust sigma of the layer plane over the window",
+            c.plane_noise_mm ? *c.plane_noise_mm / 1000.0 : nan);
+  add_gauge(out, "palletd_health_noise_ratio", "Mean layer plane noise over the camera's noise model",
+            c.noise_ratio.value_or(nan));
+  MetricFamily warnings{"palletd_health_warning",
+                        "1 while a health check is beyond its limit (status word bits 9 and 10)",
+                        MetricType::Gauge,
+                        {}};
+  const std::pair<const char*, std::uint16_t> checks[] = {{"invalid", modbus::kHealthInvalid},
+                                                          {"flying", modbus::kHealthFlying},
+                                                          {"saturated", modbus::kHealthSaturated},
+                                                          {"noise", modbus::kHealthNoise},
+                                                          {"drift", modbus::kHealthDrift}};
+  for (const auto& [check, bit] : checks)
+    warnings.metric.push_back(gauge_value((c.warnings & bit) != 0 ? 1.0 : 0.0, {{"check", check}}));
+  out.push_back(std::move(warnings));
+  add_gauge(out, "palletd_camera_drift_measured",
+            "1 when the last frame was compared with the drift reference", c.drift_measured ? 1.0 : 0.0);
+  add_gauge(out, "palletd_camera_drift_shift_meters", "Camera shift against the drift reference",
+            c.drift_measured ? c.drift_shift_mm / 1000.0 : nan);
+  add_gauge(out, "palletd_camera_drift_angle_degrees", "Camera turn against the drift reference",
+            c.drift_measured ? c.drift_angle_deg : nan);
+}
+
 }  // namespace
 
 void append_service_families(const ServiceHealth& h, std::vector<MetricFamily>& out) {
@@ -73,6 +112,7 @@ void append_service_families(const ServiceHealth& h, std::vector<MetricFamily>& 
   }
   add_gauge(out, "palletd_camera_ok", "1 while the camera is connected and delivering frames",
             h.camera_ok ? 1.0 : 0.0);
+  append_cell_health_families(h.cell_health, out);
   add_gauge(out, "palletd_threads_alive", "1 while every service thread loops (the watchdog's condition)",
             h.threads_alive ? 1.0 : 0.0);
 }

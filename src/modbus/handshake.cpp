@@ -37,6 +37,8 @@ std::uint16_t Handshake::status_word() const {
   if (service_.camera_ok) w |= kStCameraOk;
   if ((heartbeat_ & 1u) != 0) w |= kStHeartbeatToggle;
   if (overrun_) w |= kStResultOverrun;
+  if ((service_.health.flags & kHealthWindowWarnings) != 0) w |= kStHealthWarning;
+  if ((service_.health.flags & kHealthDrift) != 0) w |= kStDriftWarning;
   return w;
 }
 
@@ -66,6 +68,7 @@ void Handshake::refresh() {
   s.camera_reconnects = service_.camera_reconnects;
   s.camera_faults = service_.camera_faults;
   s.connections = connections_;
+  s.health = service_.health;
   encode_status(s, options_.word_order, image_);
   ++version_;
 }
@@ -118,6 +121,10 @@ std::vector<HandshakeEvent> Handshake::on_control_written(const std::uint16_t* c
   }
   if (rising(before, after, kCtlSaveSnapshot)) {
     events.push_back(HandshakeEvent{EventKind::kSaveSnapshot, control[kRegRecipe],
+                                    control[kRegRequestId], trigger_seq_, now});
+  }
+  if (rising(before, after, kCtlSetDriftReference)) {
+    events.push_back(HandshakeEvent{EventKind::kSetDriftReference, control[kRegRecipe],
                                     control[kRegRequestId], trigger_seq_, now});
   }
   refresh();

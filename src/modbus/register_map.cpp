@@ -100,6 +100,15 @@ void encode_status(const StatusRecord& s, WordOrder order, RegisterImage& image)
   put_u32(r + kRegConnectionsRefused, c.refused, order);
   r[kRegOpenConnections] = c.open;
   r[kRegMaxConnections] = c.max_connections;
+  const HealthRecord& h = s.health;
+  r[kRegHealthFlags] = h.flags;
+  r[kRegHealthFrames] = h.frames;
+  r[kRegInvalidPermille] = unit_to_permille(h.invalid_fraction);
+  r[kRegFlyingPermille] = unit_to_permille(h.flying_fraction);
+  r[kRegSaturatedPermille] = unit_to_permille(h.saturated_fraction);
+  r[kRegNoiseRatio] = saturate_round<std::uint16_t>(h.noise_ratio * 100.0);
+  r[kRegDriftShift] = saturate_round<std::uint16_t>(h.drift_shift_mm * 10.0);
+  r[kRegDriftAngle] = saturate_round<std::uint16_t>(h.drift_angle_deg * 100.0);
 }
 
 void clear_result(RegisterImage& image) {
@@ -235,6 +244,15 @@ StatusRecord decode_status(const RegisterImage& image, WordOrder order) {
   c.refused = get_u32(r + kRegConnectionsRefused, order);
   c.open = r[kRegOpenConnections];
   c.max_connections = r[kRegMaxConnections];
+  HealthRecord& h = s.health;
+  h.flags = r[kRegHealthFlags];
+  h.frames = r[kRegHealthFrames];
+  h.invalid_fraction = r[kRegInvalidPermille] / 1000.0;
+  h.flying_fraction = r[kRegFlyingPermille] / 1000.0;
+  h.saturated_fraction = r[kRegSaturatedPermille] / 1000.0;
+  h.noise_ratio = r[kRegNoiseRatio] / 100.0;
+  h.drift_shift_mm = r[kRegDriftShift] / 10.0;
+  h.drift_angle_deg = r[kRegDriftAngle] / 100.0;
   return s;
 }
 

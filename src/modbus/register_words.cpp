@@ -82,12 +82,14 @@ std::string error_sentence(ErrorCode code, std::uint16_t detail) {
 const std::vector<std::string>& status_bit_names() {
   static const std::vector<std::string> names{
       "Ready",         "Busy",     "TriggerAck",      "ResultReady",  "Error",
-      "MissedTrigger", "CameraOK", "HeartbeatToggle", "ResultOverrun"};
+      "MissedTrigger", "CameraOK", "HeartbeatToggle", "ResultOverrun", "HealthWarning",
+      "DriftWarning"};
   return names;
 }
 
 const std::vector<std::string>& control_bit_names() {
-  static const std::vector<std::string> names{"Trigger", "ResultAck", "ClearError", "SaveSnapshot"};
+  static const std::vector<std::string> names{"Trigger", "ResultAck", "ClearError", "SaveSnapshot",
+                                                   "SetDriftReference"};
   return names;
 }
 

@@ -54,6 +54,27 @@ std::chrono::milliseconds frame_timeout(const Config& config) {
   return std::chrono::milliseconds(static_cast<long long>(config.camera.frame_timeout_ms));
 }
 
+}  // namespace
+
+Expected<Frame> grab_one_frame(const Config& config) {
+  std::unique_ptr<Camera> camera = make_camera(config.camera);
+  if (Status opened = camera->open(); !opened) return Error{opened.error()};
+  if (Status started = camera->start(); !started) {
+    camera->close();
+    return Error{started.error()};
+  }
+  if (camera->trigger_mode()) {
+    if (Status t = camera->software_trigger(); !t) spdlog::warn("{}", t.error());
+  }
+  Expected<Frame> frame = camera->grab(frame_timeout(config));
+  (void)camera->stop();
+  camera->close();
+  if (frame && config.T_base_camera) frame->T_base_camera = config.T_base_camera;
+  return frame;
+}
+
+namespace {
+
 struct GrabArgs {
   std::string config;
   std::string out;

@@ -5,6 +5,10 @@
 
 #include <CLI/CLI.hpp>
 
+#include "palletd/config/config.hpp"
+#include "palletd/core/expected.hpp"
+#include "palletd/core/frame.hpp"
+
 namespace palletd {
 
 void register_frame_info(CLI::App& app);  // palletctl info STEM...
@@ -16,8 +20,13 @@ void register_eval(CLI::App& app);        // palletctl eval DIR
 void register_simulate(CLI::App& app);    // palletctl simulate --out DIR -n N (scene simulator)
 void register_roi(CLI::App& app);         // palletctl roi STEM: suggest detection.roi from a frame
 void register_compare(CLI::App& app);     // palletctl compare --config A --config B DIR
+void register_drift(CLI::App& app);       // palletctl drift --config F [--set] [STEM...]
 
 void register_grab(CLI::App& app);    // palletctl grab --config FILE -n N --out DIR
 void register_record(CLI::App& app);  // palletctl record --config FILE [--out DIR]
+
+/// One frame from the configured camera (opened and closed for it), with the configuration's
+/// camera_to_base (cmd_grab.cpp; `drift --set` uses it).
+Expected<Frame> grab_one_frame(const Config& config);
 
 }  // namespace palletd

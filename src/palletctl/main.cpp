@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   palletd::register_simulate(app);
   palletd::register_roi(app);
   palletd::register_compare(app);
+  palletd::register_drift(app);
   palletd::register_grab(app);
   palletd::register_record(app);
 

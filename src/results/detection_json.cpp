@@ -17,6 +17,17 @@ Json vec3(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()});
 
 Json optional_number(const std::optional<double>& v) { return v ? Json(*v) : Json(nullptr); }
 
+/// The frame's cell health (detection/health.hpp); null where a figure was not measured.
+Json health_json(const FrameHealth& h) {
+  return {{"roi_pixels", h.roi_pixels},
+          {"invalid_fraction", h.invalid_fraction},
+          {"saturated_fraction", optional_number(h.saturated_fraction)},
+          {"flying_fraction", optional_number(h.flying_fraction)},
+          {"plane_noise_mm", optional_number(h.plane_noise_mm)},
+          {"model_noise_mm", optional_number(h.model_noise_mm)},
+          {"noise_ratio", optional_number(h.noise_ratio)}};
+}
+
 }  // namespace
 
 std::string detection_to_json_line(const Detection& detection, const std::string& frame_stem) {
@@ -64,6 +75,7 @@ std::string detection_to_json_line(const Detection& detection, const std::string
     boxes.push_back(std::move(box));
   }
   j["boxes"] = std::move(boxes);
+  if (detection.health.measured) j["health"] = health_json(detection.health);
   // Non-finite numbers become null (JSON has no NaN); the parser reads null back as NaN.
   return j.dump();
 }

@@ -8,12 +8,16 @@
 
 #include <spdlog/spdlog.h>
 
-#include "acquisition.hpp"
 #include "palletd/drivers/camera.hpp"
-#include "palletd/results/detection_json.hpp"
-#include "palletd/modbus/server.hpp"
-#include "palletd/results/overlay.hpp"
 #include "palletd/frames/recorder.hpp"
+#include "palletd/modbus/server.hpp"
+#include "palletd/results/detection_json.hpp"
+#include "palletd/results/overlay.hpp"
+
+#include "acquisition.hpp"
+#include "camera_status.hpp"
+#include "drift_keeper.hpp"
+#include "health_monitor.hpp"
 #include "result_record.hpp"
 #include "shadow.hpp"
 
@@ -58,7 +62,8 @@ class Service::Impl {
  public:
   explicit Impl(Config config)
       : config_(std::make_shared<const Config>(std::move(config))),
-        server_(server_options(*config_)) {}
+        server_(server_options(*config_)),
+        health_monitor_(config_->health) {}
 
   ~Impl() { stop(); }
 
@@ -73,12 +78,14 @@ class Service::Impl {
     auto supervisor = std::make_unique<CameraSupervisor>(
         std::move(camera), cfg.camera.reconnect_min_s, cfg.camera.reconnect_max_s,
         std::chrono::milliseconds(static_cast<long>(cfg.camera.control_timeout_ms)));
-    acquisition_ = std::make_unique<Acquisition>(std::move(supervisor),
-                                                 [this](const CameraSupervisor& cam) { publish_status(cam); });
+    acquisition_ = std::make_unique<Acquisition>(
+        std::move(supervisor), [this](const CameraSupervisor& cam) { publish_status(cam); });
     if (cfg.recording.enabled) {
-      recorder_ = std::make_unique<FrameRecorder>(RecorderOptions{cfg.recording.directory, cfg.recording.max_bytes});
+      recorder_ =
+          std::make_unique<FrameRecorder>(RecorderOptions{cfg.recording.directory, cfg.recording.max_bytes});
     }
     shadow_ = std::make_unique<ShadowRunner>(cfg.shadow, shadow_recording(cfg), kShadowMovedMm);
+    configure_health(cfg);
     Status bound = server_.start();
     if (!bound) return Error{"modbus: " + bound.error()};
     running_ = true;
@@ -113,6 +120,8 @@ class Service::Impl {
     next->logging = config.logging;
     next->shadow_config = config.shadow_config;
     next->shadow = config.shadow;
+    next->health = config.health;
+    reload_health_ = true;  // the pipeline thread reloads the drift reference between triggers
     if (shadow_) shadow_->set_config(config.shadow);
     std::lock_guard<std::mutex> lock(config_mutex_);
     config_ = std::move(next);
@@ -139,21 +148,8 @@ class Service::Impl {
     const auto camera_fresh = [&](Clock::time_point t) { return now - t < 60s; };
     h.threads_alive = running_ && fresh(load(pipeline_alive_)) && acquisition_ &&
                       camera_fresh(acquisition_->last_alive()) && fresh(server_.last_alive());
-    if (acquisition_) {
-      const CameraSupervisor& cam = acquisition_->camera();
-      h.camera_ok = cam.camera_ok();
-      h.camera_state = to_string(cam.state());
-      h.camera_id = cam.identity().id();
-      const CameraCounters c = cam.counters();
-      h.frames = c.frames;
-      h.reconnects = c.reconnects;
-      h.camera_restarts = acquisition_->camera_restarts();
-      h.incomplete_frames = c.incomplete;
-      h.grab_timeouts = c.timeouts;
-      h.dropped_frames = c.drops;
-      h.camera_losses = c.faults;
-      h.resent_packets = c.resent;
-    }
+    if (acquisition_) add_camera_health(*acquisition_, h);
+    h.cell_health = cell_health();
     h.triggers = triggers_.load();
     h.results = results_.load();
     h.failures = failures_.load();
@@ -181,7 +177,9 @@ class Service::Impl {
   std::function<void(const ResultSnapshot&)> result_listener_;  ///< set before start()
 
  private:
-  static void mark(std::atomic<Clock::duration::rep>& slot) { slot.store(Clock::now().time_since_epoch().count()); }
+  static void mark(std::atomic<Clock::duration::rep>& slot) {
+    slot.store(Clock::now().time_since_epoch().count());
+  }
   static Clock::time_point load(const std::atomic<Clock::duration::rep>& slot) {
     return Clock::time_point(Clock::duration(slot.load()));
   }
@@ -193,32 +191,12 @@ class Service::Impl {
 
   // Acquisition thread: camera state into the status block.
   void publish_status(const CameraSupervisor& cam) {
-    auto status = std::make_shared<modbus::ServiceStatus>();
-    const CameraCounters c = cam.counters();
-    status->ready = running_.load();
-    status->camera_ok = cam.camera_ok();
-    // Not streaming after a fault (also while closed between reconnect attempts) or after a
-    // failed attempt: disconnected. Closed before the first attempt is just starting up.
-    if (!status->camera_ok && running_.load() &&
-        (cam.state() != CameraState::kClosed || c.faults > 0 || cam.seconds_to_retry() > 0.0)) {
-      status->error = modbus::ErrorCode::kCameraDisconnected;
-      status->error_detail = static_cast<std::uint16_t>(std::min<std::uint64_t>(c.faults, 65535));
-    }
-    status->acquisition_id = static_cast<std::uint16_t>(c.frames & 0xFFFF);
-    status->frames_grabbed = static_cast<std::uint32_t>(c.frames);
-    status->camera_reconnects = static_cast<std::uint16_t>(std::min<std::uint64_t>(c.reconnects, 65535));
-    // 32-bit counters wrap (a PLC computes differences modulo 2^32).
-    const auto u32 = [](std::uint64_t v) { return static_cast<std::uint32_t>(v & 0xFFFFFFFFu); };
-    modbus::CameraFaultCounters& f = status->camera_faults;
-    f.incomplete_frames = u32(c.incomplete);
-    f.grab_timeouts = u32(c.timeouts);
-    f.dropped_frames = u32(c.drops);
-    f.camera_losses = u32(c.faults);
-    f.camera_restarts = u32(acquisition_ ? acquisition_->camera_restarts() : 0);
-    f.resent_packets = u32(c.resent);
+    auto status = std::make_shared<modbus::ServiceStatus>(
+        camera_status(cam, acquisition_ ? acquisition_->camera_restarts() : 0, running_.load()));
     // Base frame when calibrated in the config, or when the frames carry camera_to_base (replay of
     // a recording made on a calibrated cell).
     status->poses_in_camera_frame = !config()->T_base_camera.has_value() && !frames_have_base_.load();
+    status->health = to_health_record(cell_health());
     server_.publish_status(std::move(status));
   }
 
@@ -242,10 +220,15 @@ class Service::Impl {
     while (running_) {
       mark(pipeline_alive_);
       try {
+        if (reload_health_.exchange(false)) configure_health(*config());
         std::optional<modbus::HandshakeEvent> event = server_.wait_event(200ms);
         if (!event) continue;
         if (event->kind == modbus::EventKind::kSaveSnapshot) {
           snapshot_requested_ = true;
+          continue;
+        }
+        if (event->kind == modbus::EventKind::kSetDriftReference) {
+          set_drift_reference(*event);
           continue;
         }
         handle_trigger(*event);
@@ -278,8 +261,9 @@ class Service::Impl {
           event.time, std::chrono::milliseconds(static_cast<long>(cfg->camera.frame_timeout_ms)));
       if (!grabbed) {
         const bool camera_ok = acquisition_->camera().camera_ok();
-        fail(record, *snapshot, camera_ok ? modbus::ErrorCode::kFrameTimeout : modbus::ErrorCode::kCameraDisconnected,
-             0, "frame: " + grabbed.error());
+        fail(record, *snapshot,
+             camera_ok ? modbus::ErrorCode::kFrameTimeout : modbus::ErrorCode::kCameraDisconnected, 0,
+             "frame: " + grabbed.error());
       } else {
         Frame f = std::move(grabbed).value();
         if (cfg->T_base_camera) f.T_base_camera = cfg->T_base_camera;
@@ -300,6 +284,7 @@ class Service::Impl {
       std::lock_guard<std::mutex> lock(latest_mutex_);
       latest_ = snapshot;
     }
+    if (frame) update_health(*frame, snapshot->detection);  // after the result: never delays it
     if (result_listener_) result_listener_(*snapshot);
     if (shadow_ && snapshot->frame) shadow_->submit(snapshot);  // a frame came: a detection ran
     spdlog::info("trigger {} (request {}, recipe {}): {} box(es), {} in {:.1f} ms", event.trigger_seq,
@@ -309,8 +294,8 @@ class Service::Impl {
     record_if_asked(*cfg, *snapshot);
   }
 
-  void run_detection(const Config& cfg, const Recipe& recipe, const Frame& frame, modbus::ResultRecord& record,
-                     ResultSnapshot& snapshot) {
+  void run_detection(const Config& cfg, const Recipe& recipe, const Frame& frame,
+                     modbus::ResultRecord& record, ResultSnapshot& snapshot) {
     std::vector<BoxFormat> formats;
     for (int index : recipe.formats) formats.push_back(cfg.formats[static_cast<std::size_t>(index)]);
     const auto t0 = Clock::now();
@@ -333,8 +318,8 @@ class Service::Impl {
     snapshot.detection = std::move(detection);
   }
 
-  void fail(modbus::ResultRecord& record, ResultSnapshot& snapshot, modbus::ErrorCode code, std::uint16_t detail,
-            std::string text) {
+  void fail(modbus::ResultRecord& record, ResultSnapshot& snapshot, modbus::ErrorCode code,
+            std::uint16_t detail, std::string text) {
     failures_.fetch_add(1);
     record.status = modbus::ResultStatus::kFailed;
     record.error = code;
@@ -344,6 +329,52 @@ class Service::Impl {
     snapshot.error = code;
     snapshot.error_text = std::move(text);
     spdlog::warn("trigger failed: {}", snapshot.error_text);
+  }
+
+  // Pipeline thread: the health window, the drift reference and what the status block shows.
+  void configure_health(const Config& cfg) {
+    health_monitor_.set_limits(cfg.health);
+    spdlog::info("{}", drift_.configure(cfg));
+    publish_cell_health();
+  }
+
+  void update_health(const Frame& frame, const Detection& detection) {
+    health_monitor_.add(detection.health);
+    health_monitor_.set_drift(drift_.measure(frame));
+    publish_cell_health();
+    publish_status(acquisition_->camera());
+  }
+
+  void publish_cell_health() {
+    CellHealth summary = health_monitor_.summary();
+    std::lock_guard<std::mutex> lock(cell_health_mutex_);
+    cell_health_ = std::move(summary);
+  }
+
+  CellHealth cell_health() const {
+    std::lock_guard<std::mutex> lock(cell_health_mutex_);
+    return cell_health_;
+  }
+
+  // Control bit 4: the next frame becomes the drift reference (written to health.drift_reference).
+  void set_drift_reference(const modbus::HandshakeEvent& event) {
+    const std::shared_ptr<const Config> cfg = config();
+    Expected<Frame> grabbed = acquisition_->frame_after(
+        event.time, std::chrono::milliseconds(static_cast<long>(cfg->camera.frame_timeout_ms)));
+    if (!grabbed) {
+      spdlog::error("drift reference not set: no frame: {}", grabbed.error());
+      return;
+    }
+    Frame frame = std::move(grabbed).value();
+    if (cfg->T_base_camera) frame.T_base_camera = cfg->T_base_camera;
+    if (Status set = drift_.set_reference(frame); !set) {
+      spdlog::error("drift reference not set: {}", set.error());
+      return;
+    }
+    spdlog::info("drift reference set from frame {} ({})", frame.sequence, cfg->health.drift_reference);
+    health_monitor_.set_drift(drift_.measure(frame));
+    publish_cell_health();
+    publish_status(acquisition_->camera());
   }
 
   void record_if_asked(const Config& cfg, const ResultSnapshot& snapshot) {
@@ -374,6 +405,11 @@ class Service::Impl {
   std::unique_ptr<FrameRecorder> recorder_;  ///< pipeline thread only
   std::unique_ptr<ShadowRunner> shadow_;     ///< created by start(); its thread ends with stop()
   DetectionWorkspace workspace_;             ///< pipeline thread only: rays and cloud reused
+  HealthMonitor health_monitor_;             ///< pipeline thread only
+  DriftKeeper drift_;                        ///< pipeline thread only
+  mutable std::mutex cell_health_mutex_;
+  CellHealth cell_health_;  ///< health_monitor_'s summary; guarded by cell_health_mutex_
+  std::atomic<bool> reload_health_{false};
   std::thread pipeline_;
   std::thread status_;
   std::mutex status_mutex_;  ///< for status_cv_ only
@@ -410,6 +446,9 @@ std::string Service::status_line() const {
   s += ": " + std::to_string(h.triggers) + " triggers, " + std::to_string(h.failures) + " failed; camera " +
        h.camera_id + " " + h.camera_state + "; modbus port " + std::to_string(h.modbus_port) + ", " +
        std::to_string(h.modbus_connections) + " client(s)";
+  if ((h.cell_health.warnings & modbus::kHealthDrift) != 0)
+    s += "; DRIFT: camera moved against its reference";
+  if ((h.cell_health.warnings & modbus::kHealthWindowWarnings) != 0) s += "; health warning (see 146)";
   if (h.recording_failures > 0) {
     s += "; recording failed " + std::to_string(h.recording_failures) + " time(s)";
     if (!h.last_recording_error.empty()) s += ", last: " + h.last_recording_error;

@@ -176,6 +176,30 @@ TEST_CASE("config: the metrics section, and its errors with line and key") {
   CHECK_THAT(unknown.what, Contains("path"));
 }
 
+TEST_CASE("config: the health section reaches the detection's noise model, and its errors have line and key") {
+  const Config c = parse_config("health:\n  window_frames: 50\n  max_flying_fraction: 0.4\n"
+                                "  noise_model: {sigma_mm_at_1m: 1.5, exponent: 2}\n"
+                                "  drift_reference: ref/drift\n  max_drift_deg: 0.5\n",
+                                "health.yaml", "/etc/palletd");
+  CHECK(c.health.window_frames == 50);
+  CHECK(c.health.max_flying_fraction == 0.4);
+  CHECK(c.health.max_drift_deg == 0.5);
+  CHECK(c.health.max_drift_mm == 10.0);  // default kept
+  CHECK(c.health.drift_reference == "/etc/palletd/ref/drift");
+  CHECK(c.detection.noise_model.sigma_mm_at_1m == 1.5);
+  CHECK(c.detection.noise_model.exponent == 2.0);
+  CHECK_FALSE(Config{}.detection.noise_model.enabled());
+
+  const Failure share = failure_of("health:\n  max_invalid_fraction: 1.5\n");
+  CHECK(share.line == 2);
+  CHECK(share.key == "health.max_invalid_fraction");
+  const Failure nested = failure_of("health:\n  noise_model:\n    sigma_mm_at_1m: -1\n");
+  CHECK(nested.line == 3);
+  CHECK(nested.key == "health.noise_model.sigma_mm_at_1m");
+  const Failure window = failure_of("health:\n  window_frames: 0\n");
+  CHECK(window.key == "health.window_frames");
+}
+
 TEST_CASE("config: shadow_config loads a second file, and its errors name that file") {
   const std::string dir = std::string(PALLETD_BINARY_DIR) + "/tests/io";
   const auto write = [](const std::string& path, const std::string& text) {

@@ -185,3 +185,20 @@ TEST_CASE("bad detection lines are errors") {
   CHECK(minimal->status == "no_layer");
   CHECK_FALSE(minimal->ambiguous);
 }
+
+TEST_CASE("detection line: the frame's health, null where a figure was not measured") {
+  Detection d = sample_detection();
+  CHECK_FALSE(nlohmann::json::parse(detection_to_json_line(d, "f")).contains("health"));  // unread frame
+  d.health.measured = true;
+  d.health.roi_pixels = 1000;
+  d.health.invalid_fraction = 0.125;
+  d.health.flying_fraction = 0.25;
+  d.health.plane_noise_mm = 3.5;
+  const nlohmann::json h = nlohmann::json::parse(detection_to_json_line(d, "f"))["health"];
+  CHECK(h["roi_pixels"] == 1000);
+  CHECK(h["invalid_fraction"] == 0.125);
+  CHECK(h["flying_fraction"] == 0.25);
+  CHECK(h["plane_noise_mm"] == 3.5);
+  CHECK(h["saturated_fraction"].is_null());
+  CHECK(h["noise_ratio"].is_null());
+}

@@ -279,3 +279,27 @@ TEST_CASE("the service's camera fault counters reach registers 118..129 in the c
   hs.on_service_status(s);
   CHECK(hs.registers()[kRegGrabTimeouts] == 9);
 }
+
+TEST_CASE("HealthWarning and DriftWarning follow the service's health flags, SetDriftReference is an event",
+          "[modbus][handshake]") {
+  Clock::time_point now{};
+  Handshake hs(HandshakeOptions{}, now);
+  Plc plc{{}, hs, now};
+  ServiceStatus s = ready_status();
+  hs.on_service_status(s);
+  CHECK((plc.status() & (kStHealthWarning | kStDriftWarning)) == 0);
+  s.health.flags = kHealthSaturated | kHealthDriftReference | kHealthDriftMeasured;
+  hs.on_service_status(s);
+  CHECK((plc.status() & (kStHealthWarning | kStDriftWarning)) == kStHealthWarning);
+  CHECK(hs.registers()[kRegHealthFlags] == s.health.flags);
+  s.health.flags = kHealthDrift | kHealthDriftReference | kHealthDriftMeasured;
+  hs.on_service_status(s);
+  CHECK((plc.status() & (kStHealthWarning | kStDriftWarning)) == kStDriftWarning);
+  // Warnings are not errors: the cell keeps picking.
+  CHECK((plc.status() & (kStError | kStReady)) == kStReady);
+
+  auto events = plc.write(kCtlSetDriftReference, 1, 5);
+  REQUIRE(events.size() == 1);
+  CHECK(events[0].kind == EventKind::kSetDriftReference);
+  CHECK(plc.write(kCtlSetDriftReference, 1, 5).empty());  // held high: no second edge
+}

@@ -263,3 +263,36 @@ TEST_CASE("the Modbus connection block 140..145: evictions and refusals as uint3
     CHECK(image[kRegMaxConnections] == 16);
   }
 }
+
+TEST_CASE("the cell health block 146..155: flags, window, shares in per mille, ratio x100, drift",
+          "[modbus][register_map]") {
+  CHECK(kHealthStart == kConnectionStart + kConnectionCount);
+  CHECK(kHealthStart + kHealthCount <= kResultStart);
+  StatusRecord s;
+  s.health.flags = kHealthInvalid | kHealthDrift | kHealthDriftReference | kHealthDriftMeasured;
+  s.health.frames = 20;
+  s.health.invalid_fraction = 0.1234;
+  s.health.flying_fraction = 0.5;
+  s.health.saturated_fraction = 0.0;
+  s.health.noise_ratio = 1.57;
+  s.health.drift_shift_mm = 12.34;
+  s.health.drift_angle_deg = 0.456;
+  RegisterImage image{};
+  encode_status(s, WordOrder::kHighWordFirst, image);
+  CHECK(image[kRegHealthFlags] == 0x0071);
+  CHECK(image[kRegHealthFrames] == 20);
+  CHECK(image[kRegInvalidPermille] == 123);
+  CHECK(image[kRegFlyingPermille] == 500);
+  CHECK(image[kRegNoiseRatio] == 157);
+  CHECK(image[kRegDriftShift] == 123);  // 0.1 mm
+  CHECK(image[kRegDriftAngle] == 46);   // 0.01 deg
+  CHECK(image[kHealthStart + kHealthCount] == 0);  // the gap after the block stays 0
+  const HealthRecord back = decode_status(image, WordOrder::kHighWordFirst).health;
+  CHECK(back.flags == s.health.flags);
+  CHECK(back.drift_shift_mm == Approx(12.3));
+  CHECK(back.noise_ratio == Approx(1.57));
+  // A camera knocked far off saturates instead of wrapping.
+  s.health.drift_shift_mm = 1e6;
+  encode_status(s, WordOrder::kHighWordFirst, image);
+  CHECK(image[kRegDriftShift] == 65535);
+}

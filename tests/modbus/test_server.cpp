@@ -265,3 +265,34 @@ TEST_CASE("a client trickling half a frame does not block others", "[modbus][ser
   REQUIRE(r.size() == 11);
   CHECK(tid_of(r) == 7);
 }
+
+TEST_CASE("the health block and its status bits over the wire, SetDriftReference through coil 4",
+          "[modbus][server]") {
+  Server s;
+  Client c("127.0.0.1", s.port());
+  REQUIRE(c.connected);
+  auto status = std::make_shared<ServiceStatus>();
+  status->ready = true;
+  status->camera_ok = true;
+  status->health.flags = kHealthDrift | kHealthDriftReference | kHealthDriftMeasured;
+  status->health.frames = 7;
+  status->health.drift_shift_mm = 15.0;
+  s.server.publish_status(status);
+  REQUIRE(wait_bits(c, kRegStatusWord, kStDriftWarning, kStDriftWarning));
+  std::uint16_t block[kHealthCount] = {};
+  REQUIRE(modbus_read_registers(c.ctx, kHealthStart, kHealthCount, block) == kHealthCount);
+  CHECK(block[0] == status->health.flags);
+  CHECK(block[1] == 7);
+  CHECK(block[kRegDriftShift - kHealthStart] == 150);
+  std::uint8_t inputs[16] = {};
+  REQUIRE(modbus_read_input_bits(c.ctx, 0, 16, inputs) == 16);
+  CHECK(inputs[9] == 0);   // HealthWarning
+  CHECK(inputs[10] == 1);  // DriftWarning
+  // The block is read-only like the rest of the status block.
+  CHECK(modbus_write_register(c.ctx, kHealthStart, 1) == -1);
+
+  REQUIRE(modbus_write_bit(c.ctx, 4, 1) == 1);
+  const auto event = s.server.wait_event(milliseconds(2000));
+  REQUIRE(event.has_value());
+  CHECK(event->kind == EventKind::kSetDriftReference);
+}

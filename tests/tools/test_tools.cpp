@@ -1,14 +1,13 @@
 // The executables as a user runs them: exit codes and messages of palletd --check-config and
 // palletctl info.
-#include <catch2/catch.hpp>
-
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+
+#include <catch2/catch.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "palletd/frames/frame_io.hpp"
 
@@ -76,6 +75,20 @@ Run run(const std::string& program, const std::vector<std::string>& args) {
 void write(const std::string& path, const std::string& text) {
   std::ofstream out(path);
   out << text;
+}
+
+/// `camera_to_base: [...]` with the frame's own calibration, as a configuration line.
+std::string camera_to_base_of(const std::string& stem) {
+  const palletd::Expected<palletd::Frame> frame = palletd::read_frame(stem);
+  REQUIRE(frame);
+  REQUIRE(frame->T_base_camera);
+  std::ostringstream calibration;
+  calibration.precision(17);
+  calibration << "camera_to_base: [";
+  for (int i = 0; i < 16; ++i)
+    calibration << (i > 0 ? ", " : "") << frame->T_base_camera->matrix()(i / 4, i % 4);
+  calibration << "]\n";
+  return calibration.str();
 }
 
 }  // namespace
@@ -165,11 +178,12 @@ TEST_CASE("palletctl info summarises frames and goes on after a bad one") {
   CHECK_THAT(help.out, Contains("stems"));
 }
 
-TEST_CASE("palletctl simulate, roi and eval on cell scenes: a region per cell frame, the no-box statuses scored") {
+TEST_CASE(
+    "palletctl simulate, roi and eval on cell scenes: a region per cell frame, the no-box statuses scored") {
   TempDir dir;
   const std::string out = dir.file("cells");
-  const Run sim = run("src/palletctl/palletctl", {"simulate", "--out", out, "-n", "2", "--scene", "cell", "empty",
-                                                  "--profile", "o3d303", "--cell", "--seed", "5"});
+  const Run sim = run("src/palletctl/palletctl", {"simulate", "--out", out, "-n", "2", "--scene", "cell",
+                                                  "empty", "--profile", "o3d303", "--cell", "--seed", "5"});
   REQUIRE(sim.exit_code == 0);
   std::vector<std::string> cells;
   for (const auto& e : fs::directory_iterator(out)) {
@@ -181,7 +195,8 @@ TEST_CASE("palletctl simulate, roi and eval on cell scenes: a region per cell fr
   const std::string stem = cells.front().substr(0, cells.front().size() - 9);
   const Run roi = run("src/palletctl/palletctl", {"roi", stem});
   CHECK(roi.exit_code == 0);
-  CHECK_THAT(roi.out, Contains("detection:") && Contains("roi:") && Contains("frame: base") && Contains("min_m:"));
+  CHECK_THAT(roi.out,
+             Contains("detection:") && Contains("roi:") && Contains("frame: base") && Contains("min_m:"));
 
   const Run eval = run("src/palletctl/palletctl", {"eval", out, "--cell-files", "-q"});
   CHECK(eval.exit_code == 0);
@@ -193,32 +208,27 @@ TEST_CASE("palletctl simulate, roi and eval on cell scenes: a region per cell fr
     if (c.find("_empty_") != std::string::npos) empty_stem = c.substr(0, c.size() - 9);
   REQUIRE_FALSE(empty_stem.empty());
   // The cell's region and pallet height in a configuration, with the frame's own calibration.
-  const palletd::Expected<palletd::Frame> frame = palletd::read_frame(empty_stem);
-  REQUIRE(frame);
-  REQUIRE(frame->T_base_camera);
-  std::ostringstream calibration;
-  calibration.precision(17);
-  calibration << "camera_to_base: [";
-  for (int i = 0; i < 16; ++i) calibration << (i > 0 ? ", " : "") << frame->T_base_camera->matrix()(i / 4, i % 4);
-  calibration << "]\n";
   const std::string config = dir.file("cell.yaml");
-  write(config, slurp(empty_stem + ".roi.yaml") + calibration.str());
-  const Run detect = run("src/palletctl/palletctl", {"detect", empty_stem, "--box", "400x300", "--config", config});
+  write(config, slurp(empty_stem + ".roi.yaml") + camera_to_base_of(empty_stem));
+  const Run detect =
+      run("src/palletctl/palletctl", {"detect", empty_stem, "--box", "400x300", "--config", config});
   CHECK(detect.exit_code == 0);
   CHECK_THAT(detect.out, Contains("\"status\":\"empty\""));
 }
 
 TEST_CASE("palletctl compare lists the frames whose result differs between two configurations") {
   TempDir dir;
-  const std::string formats = "formats:\n  - {name: 600x400, long_mm: 600, short_mm: 400}\n"
-                              "  - {name: 400x300, long_mm: 400, short_mm: 300}\n";
+  const std::string formats =
+      "formats:\n  - {name: 600x400, long_mm: 600, short_mm: 400}\n"
+      "  - {name: 400x300, long_mm: 400, short_mm: 300}\n";
   const std::string a = dir.file("a.yaml"), b = dir.file("b.yaml");
   write(a, formats + "recipes:\n  - {number: 1, name: r, formats: [600x400]}\n");
   write(b, formats + "recipes:\n  - {number: 1, name: r, formats: [400x300]}\n");
   const std::string frame = kSource + "/tests/data/01_block_600x400_o3d303";
   const std::string overlays = dir.file("overlays");
 
-  const Run same = run("src/palletctl/palletctl", {"compare", "--config", a, "--config", a, "--recipe", "1", frame});
+  const Run same =
+      run("src/palletctl/palletctl", {"compare", "--config", a, "--config", a, "--recipe", "1", frame});
   CHECK(same.exit_code == 0);
   CHECK(same.out.empty());
 
@@ -229,11 +239,46 @@ TEST_CASE("palletctl compare lists the frames whose result differs between two c
   CHECK(fs::file_size(overlays + "/01_block_600x400_o3d303.a.overlay.png") > 0);
   CHECK(fs::file_size(overlays + "/01_block_600x400_o3d303.b.overlay.png") > 0);
 
-  const Run missing = run("src/palletctl/palletctl", {"compare", "--config", a, "--config", b, "--recipe", "1",
-                                                      dir.file("no_such_frame")});
+  const Run missing = run("src/palletctl/palletctl", {"compare", "--config", a, "--config", b, "--recipe",
+                                                      "1", dir.file("no_such_frame")});
   CHECK(missing.exit_code == 2);
   CHECK_THAT(missing.err, Contains("no_such_frame"));
   const Run one = run("src/palletctl/palletctl", {"compare", "--config", a, "--recipe", "1", frame});
   CHECK(one.exit_code == 2);
   CHECK_THAT(one.err, Contains("--config twice"));
+}
+
+TEST_CASE("palletctl drift: --set writes a reference, frames are measured against it") {
+  TempDir dir;
+  const std::string out = dir.file("cells");
+  const Run sim = run("src/palletctl/palletctl", {"simulate", "--out", out, "-n", "1", "--scene", "cell",
+                                                  "--profile", "o3d303", "--cell", "--seed", "8"});
+  REQUIRE(sim.exit_code == 0);
+  std::string stem;
+  for (const auto& e : fs::directory_iterator(out)) {
+    const std::string name = e.path().string();
+    if (name.size() > 9 && name.substr(name.size() - 9) == ".roi.yaml")
+      stem = name.substr(0, name.size() - 9);
+  }
+  REQUIRE_FALSE(stem.empty());
+  const std::string config = dir.file("cell.yaml");
+  write(config, slurp(stem + ".roi.yaml") + camera_to_base_of(stem) +
+                    "health:\n  drift_reference: " + dir.file("ref/drift") + "\n");
+
+  const Run set = run("src/palletctl/palletctl", {"drift", "--config", config, "--set", "--frame", stem});
+  INFO(set.err);
+  REQUIRE(set.exit_code == 0);
+  CHECK_THAT(set.out, Contains("fixed points"));
+  CHECK(fs::exists(dir.file("ref/drift.depth.png")));
+
+  const Run same = run("src/palletctl/palletctl", {"drift", "--config", config, stem});
+  INFO(same.err);
+  CHECK(same.exit_code == 0);
+  CHECK_THAT(same.out, Contains("shift 0.0 mm") && Contains("turn 0.00 deg"));
+
+  const Run missing = run("src/palletctl/palletctl", {"drift", "--config", config, dir.file("none")});
+  CHECK(missing.exit_code == 2);
+  CHECK_THAT(missing.out, Contains("none"));
+  const Run nothing = run("src/palletctl/palletctl", {"drift", "--config", config});
+  CHECK(nothing.exit_code == 2);
 }

@@ -101,7 +101,8 @@ TEST_CASE("/api/status reports state, counters, camera, recipe and the decoded r
   const Json j = get_json(run.client, "/api/status");
   CHECK(j["status"]["state"] == "ready");
   CHECK(j["status"]["error_code"] == 0);
-  REQUIRE(j["status"]["bits"].size() == 9);
+  REQUIRE(j["status"]["bits"].size() == 11);
+  CHECK(j["status"]["bits"][10]["name"] == "DriftWarning");
   CHECK(j["status"]["bits"][0]["name"] == "Ready");
   CHECK(j["status"]["bits"][0]["set"] == true);
   CHECK(j["status"]["bits"][1]["set"] == false);  // Busy
@@ -124,7 +125,19 @@ TEST_CASE("/api/status reports state, counters, camera, recipe and the decoded r
   CHECK(j["last_result"]["boxes"] == f.first().detection.boxes.size());
 
   const Json& regs = j["registers"];
-  REQUIRE(regs["blocks"].size() == 4);
+  REQUIRE(regs["blocks"].size() == 5);
+  const Json& health = regs["blocks"][4];
+  CHECK(health["name"] == "health");
+  REQUIRE(health["rows"].size() == 8);
+  CHECK(health["rows"][0]["address"] == "146");
+  CHECK(health["rows"][0]["meaning"] == "drift; reference loaded; drift measured");
+  CHECK(health["rows"][2]["value"] == "4.0 %");
+  CHECK(health["rows"][6]["value"] == "12.5 mm");
+  CHECK(j["cell_health"]["frames"] == 7);
+  CHECK(j["cell_health"]["invalid_fraction"] == Approx(0.04));
+  CHECK(j["cell_health"]["flying_fraction"].is_null());
+  CHECK(j["cell_health"]["warnings"] == Json::array({"drift"}));
+  CHECK(j["cell_health"]["drift"]["shift_mm"] == Approx(12.5));
   const Json& connections = regs["blocks"][3];
   CHECK(connections["name"] == "connections");
   REQUIRE(connections["rows"].size() == 4);

@@ -63,6 +63,13 @@ WebFixture::WebFixture(const std::string& frame_stem) {
   health.grab_timeouts = 5;
   health.modbus_port = 1502;
   health.modbus_connections = 1;
+  health.cell_health.frames = 7;
+  health.cell_health.invalid_fraction = 0.04;
+  health.cell_health.warnings = modbus::kHealthDrift | modbus::kHealthDriftReference | modbus::kHealthDriftMeasured;
+  health.cell_health.drift_reference = true;
+  health.cell_health.drift_measured = true;
+  health.cell_health.drift_shift_mm = 12.5;
+  health.cell_health.drift_angle_deg = 0.4;
 
   latest_ = first_;
   image_ = encode(*first_, modbus::kStReady | modbus::kStResultReady | modbus::kStCameraOk);
@@ -104,6 +111,11 @@ modbus::RegisterImage WebFixture::encode(const ResultSnapshot& s, std::uint16_t 
   st.camera_reconnects = 2;
   st.camera_faults.grab_timeouts = 5;
   st.camera_faults.resent_packets = 70000;  // needs both words
+  st.health.flags = modbus::kHealthDrift | modbus::kHealthDriftReference | modbus::kHealthDriftMeasured;
+  st.health.frames = 7;
+  st.health.invalid_fraction = 0.04;
+  st.health.drift_shift_mm = 12.5;
+  st.health.drift_angle_deg = 0.4;
   modbus::RegisterImage image{};
   modbus::encode_status(st, modbus::WordOrder::kHighWordFirst, image);
   modbus::encode_result(rec, static_cast<std::uint16_t>(s.trigger_seq), modbus::WordOrder::kHighWordFirst, image);

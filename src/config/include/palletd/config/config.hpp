@@ -45,6 +45,22 @@ struct RecordingConfig {
   bool overlays = true;
 };
 
+/// `health`: the cell's health over a rolling window of triggered frames, and camera mount drift
+/// against a reference frame (docs/commissioning.md, "Cell health and drift").
+struct HealthConfig {
+  int window_frames = 20;               ///< triggered frames the limits are checked over (mean)
+  double max_invalid_fraction = 0.25;   ///< pixels without depth, of the region of interest's
+  double max_flying_fraction = 0.0;     ///< mixed pixels, of those just outside the layer (0: not checked)
+  double max_saturated_fraction = 0.02; ///< saturated pixels, of the region of interest's
+  double max_noise_ratio = 2.0;         ///< layer plane noise over the noise model's
+  DepthNoiseModel noise_model;          ///< copied into DetectionParams::noise_model
+  /// Stem of the reference frame (STEM.depth.png + STEM.json) drift is measured against; written
+  /// by `palletctl drift-reference` and by control bit 4. "" = no drift check.
+  std::string drift_reference = "/var/lib/palletd/drift-reference";
+  double max_drift_mm = 10.0;  ///< camera shift against the reference that raises DriftWarning [mm]
+  double max_drift_deg = 0.3;  ///< camera turn against the reference that raises DriftWarning [deg]
+};
+
 struct Config {
   std::string source_path;  ///< the file this came from ("" = defaults)
   CameraConfig camera;
@@ -58,6 +74,7 @@ struct Config {
   RecordingConfig recording;
   WebConfig web;
   MetricsConfig metrics;
+  HealthConfig health;
   /// `shadow_config`: a second configuration the daemon runs on every triggered frame after the
   /// live result, to count where it would differ (its detection, formats, recipes and
   /// camera_to_base are used). The resolved path ("" = none) and the file as loaded.

@@ -11,6 +11,7 @@
 
 #include "palletd/core/frame.hpp"
 #include "palletd/core/geometry.hpp"
+#include "palletd/detection/health.hpp"
 #include "palletd/detection/layer.hpp"
 #include "palletd/detection/status.hpp"
 #include "palletd/detection/layout.hpp"
@@ -58,6 +59,7 @@ struct DetectionParams {
   ContourParams contour;
   LayoutParams layout;
   PickOrder pick_order = PickOrder::kFarCornerFirst;
+  DepthNoiseModel noise_model;  ///< the camera's depth noise, for the frame's health (`health.noise_model`)
 };
 
 /// One detected box, camera frame [m], conventions of shared/spec/detections.md.
@@ -106,6 +108,7 @@ struct Detection {
   /// The height above the pallet is not a whole number of box heights (ambiguous is set too).
   bool height_off_layers = false;
   std::vector<DetectedBox> boxes;
+  FrameHealth health;  ///< how well the camera saw the cell in this frame (every readable frame)
   LayerResult layer;  ///< the first half's result, for overlays and diagnostics
 };
 

@@ -4,8 +4,9 @@
 // its own: callers pass the time, so tests drive it deterministically.
 //
 // Rules (docs/register-map.md has the PLC's view):
-// - Trigger, ResultAck, ClearError and SaveSnapshot act on their rising edge in the control word;
-//   edges written in one request are taken in the order ResultAck, ClearError, Trigger, SaveSnapshot.
+// - Trigger, ResultAck, ClearError, SaveSnapshot and SetDriftReference act on their rising edge in
+//   the control word; edges written in one request are taken in the order ResultAck, ClearError,
+//   Trigger, SaveSnapshot, SetDriftReference.
 // - Trigger edge while Ready and not Busy: latch recipe (1) and request id (2) written with it,
 //   clear ResultReady, set Busy and TriggerAck, emit a kTrigger event. Otherwise (Busy or not
 //   Ready): set MissedTrigger and count it (112); no event.
@@ -15,7 +16,9 @@
 //   set/clear the result error (Error bit, 101/102) from the result status, clear Busy.
 // - ResultAck edge: clear ResultReady. ClearError edge: clear the latched result error,
 //   MissedTrigger and ResultOverrun (live errors such as a lost camera stay until they go away).
-// - SaveSnapshot edge: emit a kSaveSnapshot event.
+// - SaveSnapshot edge: emit a kSaveSnapshot event. SetDriftReference edge: emit a
+//   kSetDriftReference event.
+// - HealthWarning and DriftWarning (status word bits 9, 10) follow the service's health record.
 // - Heartbeat counter (103) +1 every second, HeartbeatToggle = its lowest bit.
 // - PLC heartbeat watch (optional): register 3 unchanged for longer than the timeout -> error
 //   kPlcHeartbeatLost and Ready cleared until it changes again.
@@ -48,9 +51,10 @@ struct ServiceStatus {
   std::uint16_t camera_reconnects = 0;
   CameraFaultCounters camera_faults;   ///< registers 118..129
   bool poses_in_camera_frame = false;  ///< no camera_to_base configured
+  HealthRecord health;                 ///< registers 146..155, status word bits 9 and 10
 };
 
-enum class EventKind : std::uint8_t { kTrigger, kSaveSnapshot };
+enum class EventKind : std::uint8_t { kTrigger, kSaveSnapshot, kSetDriftReference };
 
 struct HandshakeEvent {
   EventKind kind = EventKind::kTrigger;

@@ -69,6 +69,17 @@ inline constexpr std::uint16_t kRegConnectionsEvicted = 140;  ///< 140-141
 inline constexpr std::uint16_t kRegConnectionsRefused = 142;  ///< 142-143
 inline constexpr std::uint16_t kRegOpenConnections = 144;
 inline constexpr std::uint16_t kRegMaxConnections = 145;
+// cell health block 146..155, read-only: the health window's means and the camera's drift
+inline constexpr std::uint16_t kHealthStart = 146;
+inline constexpr std::uint16_t kHealthCount = 10;           ///< 146..155 (154..155 reserved, read 0)
+inline constexpr std::uint16_t kRegHealthFlags = 146;       ///< kHealth* bits
+inline constexpr std::uint16_t kRegHealthFrames = 147;      ///< frames in the window
+inline constexpr std::uint16_t kRegInvalidPermille = 148;
+inline constexpr std::uint16_t kRegFlyingPermille = 149;
+inline constexpr std::uint16_t kRegSaturatedPermille = 150;
+inline constexpr std::uint16_t kRegNoiseRatio = 151;        ///< plane noise over the model's, x100
+inline constexpr std::uint16_t kRegDriftShift = 152;        ///< 0.1 mm, saturated at 65535
+inline constexpr std::uint16_t kRegDriftAngle = 153;        ///< 0.01 deg, saturated at 65535
 // result block
 inline constexpr std::uint16_t kRegResultId = 200;
 inline constexpr std::uint16_t kRegResultRequestId = 201;
@@ -85,6 +96,7 @@ inline constexpr std::uint16_t kCtlTrigger = 1u << 0;
 inline constexpr std::uint16_t kCtlResultAck = 1u << 1;
 inline constexpr std::uint16_t kCtlClearError = 1u << 2;
 inline constexpr std::uint16_t kCtlSaveSnapshot = 1u << 3;
+inline constexpr std::uint16_t kCtlSetDriftReference = 1u << 4;
 // status word bits (register 100)
 inline constexpr std::uint16_t kStReady = 1u << 0;
 inline constexpr std::uint16_t kStBusy = 1u << 1;
@@ -95,6 +107,10 @@ inline constexpr std::uint16_t kStMissedTrigger = 1u << 5;
 inline constexpr std::uint16_t kStCameraOk = 1u << 6;
 inline constexpr std::uint16_t kStHeartbeatToggle = 1u << 7;
 inline constexpr std::uint16_t kStResultOverrun = 1u << 8;
+/// A cell health mean is beyond its limit (register 146 bits 0..3 say which).
+inline constexpr std::uint16_t kStHealthWarning = 1u << 9;
+/// The camera moved against its drift reference beyond health.max_drift_mm / _deg.
+inline constexpr std::uint16_t kStDriftWarning = 1u << 10;
 // format flags (register 109)
 inline constexpr std::uint16_t kFmtLowWordFirst = 1u << 0;
 inline constexpr std::uint16_t kFmtCameraFrame = 1u << 1;
@@ -106,6 +122,15 @@ inline constexpr std::uint16_t kResLayerClipped = 1u << 2;
 inline constexpr std::uint16_t kResOutlineUnobserved = 1u << 3;
 /// The layer's height above the pallet is not a whole number of box heights (bit0 is set too).
 inline constexpr std::uint16_t kResHeightOffLayers = 1u << 4;
+// cell health flags (register 146)
+inline constexpr std::uint16_t kHealthInvalid = 1u << 0;    ///< pixels without depth over the limit
+inline constexpr std::uint16_t kHealthFlying = 1u << 1;     ///< mixed pixels over the limit
+inline constexpr std::uint16_t kHealthSaturated = 1u << 2;  ///< saturated pixels over the limit
+inline constexpr std::uint16_t kHealthNoise = 1u << 3;      ///< plane noise over the limit
+inline constexpr std::uint16_t kHealthDrift = 1u << 4;      ///< drift over the limit
+inline constexpr std::uint16_t kHealthDriftReference = 1u << 5;  ///< a drift reference is loaded
+inline constexpr std::uint16_t kHealthDriftMeasured = 1u << 6;   ///< the last frame was compared with it
+inline constexpr std::uint16_t kHealthWindowWarnings = kHealthInvalid | kHealthFlying | kHealthSaturated | kHealthNoise;
 // layer info flags (register 131)
 inline constexpr std::uint16_t kLayerHeightKnown = 1u << 0;
 inline constexpr std::uint16_t kLayersRemainingKnown = 1u << 1;
@@ -144,8 +169,8 @@ enum class ResultStatus : std::uint16_t { kOk = 0, kNoBoxes = 1, kFailed = 2 };
 
 enum class WordOrder : std::uint8_t { kHighWordFirst, kLowWordFirst };
 
-/// The whole addressable register space 0..530 (control, status and result blocks; the gaps
-/// 16..99 and 130..199 read 0).
+/// The whole addressable register space 0..530 (control, status, result extension, connection,
+/// health and result blocks; the gaps 16..99, 135..139 and 154..199 read 0).
 using RegisterImage = std::array<std::uint16_t, kRegisterCount>;
 
 /// One box as the service computed it, in engineering units.
@@ -210,7 +235,26 @@ struct ConnectionCounters {
   friend bool operator!=(const ConnectionCounters& a, const ConnectionCounters& b) { return !(a == b); }
 };
 
-/// The status block's content in engineering units (what registers 100..129 and 140..145 show).
+/// The cell health block (registers 146..155) in engineering units.
+struct HealthRecord {
+  std::uint16_t flags = 0;        ///< kHealth* bits
+  std::uint16_t frames = 0;       ///< frames in the window
+  double invalid_fraction = 0.0;  ///< 0..1
+  double flying_fraction = 0.0;   ///< 0..1
+  double saturated_fraction = 0.0;  ///< 0..1
+  double noise_ratio = 0.0;       ///< plane noise over the model's (0: not measured)
+  double drift_shift_mm = 0.0;
+  double drift_angle_deg = 0.0;
+
+  friend bool operator==(const HealthRecord& a, const HealthRecord& b) {
+    return a.flags == b.flags && a.frames == b.frames && a.invalid_fraction == b.invalid_fraction &&
+           a.flying_fraction == b.flying_fraction && a.saturated_fraction == b.saturated_fraction &&
+           a.noise_ratio == b.noise_ratio && a.drift_shift_mm == b.drift_shift_mm &&
+           a.drift_angle_deg == b.drift_angle_deg;
+  }
+};
+
+/// The status block's content in engineering units (what registers 100..129 and 140..155 show).
 struct StatusRecord {
   std::uint16_t status_word = 0;  ///< kSt* bits
   ErrorCode error = ErrorCode::kNone;
@@ -228,6 +272,7 @@ struct StatusRecord {
   std::uint16_t camera_reconnects = 0;
   CameraFaultCounters camera_faults;  ///< 118..129
   ConnectionCounters connections;     ///< 140..145
+  HealthRecord health;                ///< 146..155
 };
 
 /// The PLC's control block decoded.
@@ -253,7 +298,7 @@ void put_i32(std::uint16_t* dst, std::int32_t value, WordOrder order);
 std::int32_t get_i32(const std::uint16_t* src, WordOrder order);
 
 // ---- blocks ----
-/// Writes registers 100..129 and 140..145.
+/// Writes registers 100..129 and 140..155.
 void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& image);
 /// Writes registers 200..530 with `result_id` in 200 and 530 (unused box slots zeroed) and the
 /// result extension 130..139.

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "palletd/core/frame.hpp"
@@ -25,6 +26,23 @@ struct ResultSnapshot {
   std::shared_ptr<const Frame> frame;  ///< the frame the result was computed from (may be null)
   double latency_ms = 0.0;             ///< trigger edge to result published [ms]
   std::chrono::system_clock::time_point time;
+};
+
+/// The cell's health over the last triggered frames (`health` section) and the camera's drift
+/// against its reference. Means are null until a frame measured them.
+struct CellHealth {
+  std::size_t frames = 0;  ///< frames in the window
+  std::optional<double> invalid_fraction;    ///< mean share of pixels without depth
+  std::optional<double> flying_fraction;     ///< mean share of mixed pixels at the layer's edges
+  std::optional<double> saturated_fraction;  ///< mean share of saturated pixels
+  std::optional<double> plane_noise_mm;      ///< mean layer plane noise [mm]
+  std::optional<double> noise_ratio;         ///< mean plane noise over the noise model's
+  std::uint16_t warnings = 0;                ///< modbus::kHealth* bits (register 146)
+  bool drift_reference = false;              ///< a drift reference is loaded
+  bool drift_measured = false;               ///< the last frame was compared with it
+  double drift_shift_mm = 0.0;               ///< camera shift against the reference [mm]
+  double drift_angle_deg = 0.0;              ///< camera turn against the reference [deg]
+  std::string drift_note;                    ///< why drift is not measured, or what it cannot see
 };
 
 /// Live figures of the service, for the watchdog, sd_notify STATUS= and the status page.
@@ -54,6 +72,7 @@ struct ServiceHealth {
   std::uint64_t shadow_disagreements = 0;   ///< of those, results that differ from the live one
   std::uint64_t shadow_skipped = 0;         ///< frames not run (shadow busy, recipe missing)
   std::string last_shadow_difference;       ///< "trigger 12: boxes 12 -> 11"; "" before the first
+  CellHealth cell_health;                   ///< health window and drift (registers 146..155)
 };
 
 }  // namespace palletd
