@@ -6,8 +6,9 @@
 #   BUILD_DIR=build-x CMAKE_ARGS="-D..." scripts/test.sh   # the release stage elsewhere / with options
 # Stages (each its own build folder, docs/reliability.md "Sanitizers and fuzzing"):
 #   release  -Werror build (CI) + whole suite                               build/
-#   asan     clang ASan + UBSan (-O1, no benchmarks) + whole suite          build-asan/
+#   asan     clang ASan + UBSan (-O1, no benchmarks) + the suite but the soak build-asan/
 #   tsan     ThreadSanitizer: daemon, service, Modbus and driver tests only build-tsan/
+#            (not palletctl)
 #   fuzz     libFuzzer targets, PALLETD_FUZZ_SECONDS each (30)              build-asan/
 # Every stage runs even when an earlier one failed; the exit status is non-zero if any failed.
 set -euo pipefail
@@ -70,6 +71,12 @@ stage_release() {
 # tests out for one run.
 asan_exclude_default=''
 asan_exclude=${PALLETD_ASAN_EXCLUDE-$asan_exclude_default}
+# The 120 s soak (label soak) runs in the release stage only. It judges the daemon's resident
+# memory, file descriptors and latency over two minutes, which under ASan are the sanitizer's (its
+# quarantine holds freed memory back, every call is slower); memory errors under load are what the
+# reliability tests (faults, restarts, 32 pollers, abuse) look for under ASan. Run alone, it took
+# 124 s of the stage's 553 s of tests. PALLETD_ASAN_SKIP_LABELS='' runs it.
+asan_skip_labels=${PALLETD_ASAN_SKIP_LABELS-soak}
 
 stage_asan() {
   local build_dir=${BUILD_DIR_ASAN:-build-asan}
@@ -80,19 +87,23 @@ stage_asan() {
   (
     # shellcheck source=tests/sanitizers/env.sh
     source tests/sanitizers/env.sh
+    local filters=()
+    if [[ -n "$asan_skip_labels" ]]; then filters+=(-LE "$asan_skip_labels"); fi
     if [[ -n "$asan_exclude" ]]; then
       echo "test.sh: asan stage leaves out (PALLETD_ASAN_EXCLUDE): $asan_exclude" >&2
-      ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -E "$asan_exclude" ${CTEST_ARGS:-}
-    else
-      ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-}
+      filters+=(-E "$asan_exclude")
     fi
+    ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" "${filters[@]}" ${CTEST_ARGS:-}
   )
 }
 
-# The threaded parts: the daemon (and palletctl, which the driver tests run), the service, the
-# Modbus server and its test server, and the camera drivers (Aravis, cloud replay, OpenNI2 with its
-# test device and .oni playback; docs/reliability.md "Sanitizer results").
-tsan_targets=(palletd palletctl palletd_daemon_tests palletd_service_tests palletd_modbus_tests
+# The threaded parts: the daemon, the service, the Modbus server and its test server, and the
+# camera drivers (Aravis, cloud replay, OpenNI2 with its test device and .oni playback;
+# docs/reliability.md "Sanitizer results"). palletctl is not built: the three driver cases that
+# run `palletctl grab` / `record` (one grab loop on the driver the other cases drive directly) are
+# left out here and run in the release and asan stages; building palletctl took a quarter of the
+# stage.
+tsan_targets=(palletd palletd_daemon_tests palletd_service_tests palletd_modbus_tests
               palletd_modbus_test_server palletd_drivers_tests palletd_drivers_aravis_tests
               palletd_drivers_cloud_tests palletd_drivers_openni2_tests palletd_drivers_openni2_pairing_tests)
 tsan_tests='^(palletd_daemon_tests|palletd_service_tests|palletd_modbus_tests|palletd_drivers_tests|palletd_drivers_aravis_tests|palletd_drivers_cloud_tests|palletd_drivers_openni2_tests|palletd_drivers_openni2_pairing_tests):|^palletd_modbus_(pymodbus|npm)_handshake$'
@@ -104,7 +115,8 @@ stage_tsan() {
   npm_deps "$build_dir"
   (
     source tests/sanitizers/env.sh
-    ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -R "$tsan_tests" ${CTEST_ARGS:-}
+    ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -R "$tsan_tests" -E 'palletctl (grab|record)' \
+      ${CTEST_ARGS:-}
   )
 }
 

@@ -281,4 +281,13 @@ TEST_CASE("palletctl drift: --set writes a reference, frames are measured agains
   CHECK_THAT(missing.out, Contains("none"));
   const Run nothing = run("src/palletctl/palletctl", {"drift", "--config", config});
   CHECK(nothing.exit_code == 2);
+
+  // Without --frame the reference comes from the configured camera (here the replay driver).
+  const std::string camera_config = dir.file("camera.yaml");
+  write(camera_config, slurp(config) + "camera:\n  driver: replay\n  replay:\n    directory: " + out + "\n");
+  fs::remove(dir.file("ref/drift.depth.png"));
+  const Run grabbed = run("src/palletctl/palletctl", {"drift", "--config", camera_config, "--set"});
+  INFO(grabbed.err);
+  CHECK(grabbed.exit_code == 0);
+  CHECK(fs::exists(dir.file("ref/drift.depth.png")));
 }
