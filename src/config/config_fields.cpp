@@ -102,9 +102,7 @@ const Table<DetectionParams>& detection_table() {
          out.roi = read_roi(ctx, node, path);
        },
        [](const DetectionParams& a, const DetectionParams& b, const std::string& path, std::vector<std::string>& diffs) {
-         const bool same = a.roi.has_value() == b.roi.has_value() &&
-                           (!a.roi || (a.roi->frame == b.roi->frame && a.roi->min_m == b.roi->min_m &&
-                                       a.roi->max_m == b.roi->max_m));
+         const bool same = a.roi == b.roi;
          if (!same) diffs.push_back(path);
        },
        list_leaf<DetectionParams>},

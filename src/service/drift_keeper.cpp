@@ -9,11 +9,6 @@ namespace palletd {
 
 namespace {
 
-bool same_roi(const std::optional<RegionOfInterest>& a, const std::optional<RegionOfInterest>& b) {
-  return a.has_value() == b.has_value() &&
-         (!a || (a->frame == b->frame && a->min_m == b->min_m && a->max_m == b->max_m));
-}
-
 bool same_pose(const std::optional<Eigen::Isometry3d>& a, const std::optional<Eigen::Isometry3d>& b) {
   return a.has_value() == b.has_value() && (!a || a->matrix() == b->matrix());
 }
@@ -30,7 +25,7 @@ std::string DriftKeeper::configure(const Config& config) {
   std::error_code ec;
   const auto written = std::filesystem::last_write_time(config.health.drift_reference + ".depth.png", ec);
   if (reference_ && !ec && written == loaded_written_ && stem_ == config.health.drift_reference &&
-      same_roi(roi_, config.detection.roi) && same_pose(T_base_camera_, config.T_base_camera)) {
+      roi_ == config.detection.roi && same_pose(T_base_camera_, config.T_base_camera)) {
     return "drift reference " + stem_ + " kept";
   }
   stem_ = config.health.drift_reference;

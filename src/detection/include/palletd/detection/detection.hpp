@@ -38,6 +38,9 @@ struct RegionOfInterest {
   [[nodiscard]] bool contains(const Eigen::Vector3d& p_m) const {
     return (p_m.array() >= min_m.array()).all() && (p_m.array() <= max_m.array()).all();
   }
+  friend bool operator==(const RegionOfInterest& a, const RegionOfInterest& b) {
+    return a.frame == b.frame && a.min_m == b.min_m && a.max_m == b.max_m;
+  }
 };
 
 /// The pallet the load stands on (config `pallet`).
