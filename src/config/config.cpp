@@ -19,7 +19,7 @@ const std::vector<std::string>& top_level_keys() {
   static const std::vector<std::string> keys = {"camera",    "camera_to_base", "formats",
                                                 "recipes",   "pallet",         "detection",      "modbus",
                                                 "pipeline",  "logging",        "recording", "web", "metrics",
-                                                "health",    "shadow_config"};
+                                                "health",    "gripper",        "shadow_config"};
   return keys;
 }
 
@@ -60,6 +60,7 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (const YAML::Node n = root["web"]) read_section(ctx, n, "web", web_table(), config.web);
   if (const YAML::Node n = root["metrics"]) read_section(ctx, n, "metrics", metrics_table(), config.metrics);
   if (const YAML::Node n = root["health"]) read_section(ctx, n, "health", health_table(), config.health);
+  if (const YAML::Node n = root["gripper"]) config.detection.gripper = read_gripper(ctx, n, "gripper");
   config.detection.noise_model = config.health.noise_model;  // detect() measures against it
   if (const YAML::Node n = root["shadow_config"]) read_shadow_config(ctx, n, config);
 
@@ -168,6 +169,7 @@ std::vector<std::string> config_differences(const Config& a, const Config& b) {
   compare_section(a.web, b.web, "web", web_table(), diffs);
   compare_section(a.metrics, b.metrics, "metrics", metrics_table(), diffs);
   compare_section(a.health, b.health, "health", health_table(), diffs);
+  if (!(a.detection.gripper == b.detection.gripper)) diffs.emplace_back("gripper");
   if (a.shadow_config != b.shadow_config) diffs.emplace_back("shadow_config");
   return diffs;
 }
@@ -187,6 +189,7 @@ std::vector<std::string> config_key_paths() {
   list_section("web", web_table(), keys);
   list_section("metrics", metrics_table(), keys);
   list_section("health", health_table(), keys);
+  keys.emplace_back("gripper");
   keys.emplace_back("shadow_config");
   return keys;
 }

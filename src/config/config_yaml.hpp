@@ -31,6 +31,9 @@ std::optional<Eigen::Isometry3d> read_camera_to_base(const Context& ctx, const Y
 /// detection.roi: null, or {frame: base | camera, min_m: [x, y, z], max_m: [x, y, z]} with
 /// min < max on every axis.
 std::optional<RegionOfInterest> read_roi(const Context& ctx, const YAML::Node& node, const std::string& path);
+/// gripper: null, or {footprint_mm: [L, W], tcp_offset_mm, max_boxes, clearance_mm,
+/// yaw_limits_deg: [min, max], max_group_gap_mm, obstacle_height_mm} (config_gripper.cpp).
+std::optional<GripperParams> read_gripper(const Context& ctx, const YAML::Node& node, const std::string& path);
 std::vector<BoxFormat> read_formats(const Context& ctx, const YAML::Node& node, const std::string& path);
 std::vector<Recipe> read_recipes(const Context& ctx, const YAML::Node& node, const std::string& path,
                                  const std::vector<BoxFormat>& formats);

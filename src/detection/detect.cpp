@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "level_checks.hpp"
+#include "palletd/detection/picking.hpp"
 #include "poses.hpp"
 #include "roi.hpp"
 
@@ -188,6 +189,16 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.boxes = to_detected_boxes(layout.boxes, out.layer.T_camera_layer,
                                 frame.T_base_camera, params.pick_order);
   layer_height(layer_z_m, formats, params.pallet, out);
+  if (params.gripper) {  // Stage 8b: what the gripper can take now, and in which order.
+    t0 = Clock::now();
+    const PickSurroundings surroundings{out.layer.T_camera_layer,
+                                  obstacles_above_layer(frame, workspace.rays, out.layer.T_camera_layer,
+                                                        1e-3 * params.gripper->obstacle_height_mm,
+                                                        params.roi ? &*params.roi : nullptr, frame.T_base_camera),
+                                  params.roi, frame.T_base_camera, frame.intrinsics};
+    out.groups = plan_picks(surroundings, *params.gripper, out.boxes);
+    out.timing_ms["picking"] = ms_since(t0);
+  }
   // The layer's warnings (an outline along invalid depth) stay with a successful frame.
   std::string message = out.layer.reason;
   if (layout.completed_unseen > 0) {

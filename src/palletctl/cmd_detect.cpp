@@ -88,8 +88,9 @@ void register_detect(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("detect", "Detect the top layer's boxes in frames; one JSON line per frame");
   cmd->add_option("--box", args->boxes, "box format LONGxSHORT in mm (repeat; numbered 0, 1, ... in order)")->expected(1)->take_all();
   cmd->add_option("--config", args->config,
-                  "palletd configuration: the detection parameters (detection.roi included) come from it, the "
-                  "formats from --box (else from --recipe N); camera_to_base from it, else from each frame's JSON");
+                  "palletd configuration: the detection parameters (detection.roi included) and the gripper "
+                  "(pickable, blocked_by, tcp and groups in the JSON) come from it, the formats from --box (else from "
+                  "--recipe N); camera_to_base from it, else from each frame's JSON");
   cmd->add_option("--recipe", args->recipe, "with --config and no --box: the recipe's formats");
   cmd->add_option("--overlay", args->overlay_dir, "write STEM.overlay.png per frame into DIR");
   cmd->add_option("--debug-dir", args->debug_dir, "write one PNG per detection stage and frame into DIR");

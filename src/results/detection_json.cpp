@@ -1,5 +1,6 @@
 #include "palletd/results/detection_json.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <nlohmann/json.hpp>
@@ -26,6 +27,15 @@ Json health_json(const FrameHealth& h) {
           {"plane_noise_mm", optional_number(h.plane_noise_mm)},
           {"model_noise_mm", optional_number(h.model_noise_mm)},
           {"noise_ratio", optional_number(h.noise_ratio)}};
+}
+
+/// A TCP pose (base frame when calibrated, else camera frame; shared/spec/detections.md).
+Json tcp_json(const TcpPose& tcp) { return {{"position", vec3(tcp.position_m)}, {"yaw_deg", tcp.yaw_deg}}; }
+
+Json groups_json(const std::vector<PickGroup>& groups) {
+  Json out = Json::array();
+  for (const PickGroup& g : groups) out.push_back({{"boxes", g.boxes}, {"tcp", tcp_json(g.tcp)}, {"pick_index", g.pick_index}});
+  return out;
 }
 
 }  // namespace
@@ -72,9 +82,17 @@ std::string detection_to_json_line(const Detection& detection, const std::string
       box["base"] = std::move(base);
     }
     box["pick_index"] = b.pick_index;
+    if (b.pick) {
+      box["pickable"] = b.pick->pickable;
+      box["blocked_by"] = to_string(b.pick->blocked_by);
+      box["tcp"] = tcp_json(b.pick->tcp);
+    }
     boxes.push_back(std::move(box));
   }
   j["boxes"] = std::move(boxes);
+  const bool with_gripper = std::any_of(detection.boxes.begin(), detection.boxes.end(),
+                                        [](const DetectedBox& b) { return b.pick.has_value(); });
+  if (with_gripper) j["groups"] = groups_json(detection.groups);
   if (detection.health.measured) j["health"] = health_json(detection.health);
   // Non-finite numbers become null (JSON has no NaN); the parser reads null back as NaN.
   return j.dump();

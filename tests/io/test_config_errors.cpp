@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <fstream>
 
+#include "config_failure.hpp"
 #include "palletd/config/config.hpp"
 #include "png_util.hpp"
 
@@ -10,24 +11,11 @@ using namespace palletd;
 using Catch::Contains;
 using Catch::StartsWith;
 
+using Failure = test::ConfigFailure;
+
 namespace {
 
-struct Failure {
-  int line = -1;
-  int column = -1;
-  std::string key;
-  std::string what;
-};
-
-Failure failure_of(const std::string& text) {
-  try {
-    (void)parse_config(text, "bad.yaml");
-  } catch (const ConfigError& e) {
-    return {e.line(), e.column(), e.key_path(), e.what()};
-  }
-  FAIL("no ConfigError for:\n" << text);
-  return {};
-}
+Failure failure_of(const std::string& text) { return test::config_failure_of(text); }
 
 }  // namespace
 

@@ -202,3 +202,27 @@ TEST_CASE("detection line: the frame's health, null where a figure was not measu
   CHECK(h["saturated_fraction"].is_null());
   CHECK(h["noise_ratio"].is_null());
 }
+
+TEST_CASE("detection line: pickable, blocked_by and tcp per box, and the groups, with a gripper") {
+  Detection d = sample_detection();
+  CHECK_FALSE(nlohmann::json::parse(detection_to_json_line(d, "f")).contains("groups"));  // no gripper
+  d.boxes[0].pick = BoxPick{false, PickBlock::kHigherLevel, TcpPose{Eigen::Vector3d(0.1, -0.05, 1.42), 30.0, false}};
+  d.boxes[1].pick = BoxPick{true, PickBlock::kNone, TcpPose{Eigen::Vector3d(1.0, 2.0, 0.5), -90.0, true}};
+  d.groups = {PickGroup{{1}, TcpPose{Eigen::Vector3d(1.0, 2.05, 0.5), 90.0, true}, 0}};
+  const auto j = nlohmann::json::parse(detection_to_json_line(d, "f"));
+  CHECK(j["boxes"][0]["pickable"] == false);
+  CHECK(j["boxes"][0]["blocked_by"] == "higher_level");
+  CHECK(j["boxes"][0]["tcp"]["position"] == nlohmann::json({0.1, -0.05, 1.42}));
+  CHECK(j["boxes"][0]["tcp"]["yaw_deg"] == 30.0);
+  CHECK(j["boxes"][1]["pickable"] == true);
+  CHECK(j["boxes"][1]["blocked_by"] == "");
+  REQUIRE(j["groups"].size() == 1);
+  CHECK(j["groups"][0]["boxes"] == nlohmann::json({1}));
+  CHECK(j["groups"][0]["tcp"]["position"] == nlohmann::json({1.0, 2.05, 0.5}));
+  CHECK(j["groups"][0]["tcp"]["yaw_deg"] == 90.0);
+  CHECK(j["groups"][0]["pick_index"] == 0);
+  for (const PickBlock block : {PickBlock::kRoi, PickBlock::kYawLimits, PickBlock::kNeighbour}) {
+    d.boxes[0].pick->blocked_by = block;
+    CHECK(nlohmann::json::parse(detection_to_json_line(d, "f"))["boxes"][0]["blocked_by"] == to_string(block));
+  }
+}

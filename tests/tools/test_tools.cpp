@@ -9,6 +9,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
+
 #include "palletd/frames/frame_io.hpp"
 
 using Catch::Contains;
@@ -290,4 +292,30 @@ TEST_CASE("palletctl drift: --set writes a reference, frames are measured agains
   INFO(grabbed.err);
   CHECK(grabbed.exit_code == 0);
   CHECK(fs::exists(dir.file("ref/drift.depth.png")));
+}
+
+TEST_CASE("palletctl detect --config with a gripper: pickable, blocked_by, tcp and groups in the JSON") {
+  TempDir dir;
+  const std::string config = dir.file("gripper.yaml");
+  write(config, "gripper:\n  footprint_mm: [600, 400]\n  clearance_mm: 5\n");
+  const std::string frame = std::string(PALLETD_TEST_DATA_DIR) + "/01_block_600x400_o3d303";
+  const Run detect = run("src/palletctl/palletctl", {"detect", frame, "--box", "600x400", "--config", config});
+  REQUIRE(detect.exit_code == 0);
+  const auto j = nlohmann::json::parse(detect.out);
+  REQUIRE(j["status"] == "ok");
+  REQUIRE(j.contains("groups"));
+  int pickable = 0;
+  for (const auto& box : j["boxes"]) {
+    REQUIRE(box.contains("pickable"));
+    REQUIRE(box["tcp"]["position"].size() == 3);
+    pickable += box["pickable"].get<bool>() ? 1 : 0;
+    if (!box["pickable"].get<bool>()) CHECK(box["blocked_by"] != "");
+  }
+  CHECK(pickable >= 1);
+  CHECK(j["groups"].size() == static_cast<std::size_t>(pickable));  // one box per pick with this gripper
+  // Without a gripper the keys are absent.
+  const Run plain = run("src/palletctl/palletctl", {"detect", frame, "--box", "600x400"});
+  const auto k = nlohmann::json::parse(plain.out);
+  CHECK_FALSE(k.contains("groups"));
+  CHECK_FALSE(k["boxes"][0].contains("pickable"));
 }

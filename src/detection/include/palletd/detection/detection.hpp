@@ -11,6 +11,7 @@
 
 #include "palletd/core/frame.hpp"
 #include "palletd/core/geometry.hpp"
+#include "palletd/detection/gripper.hpp"
 #include "palletd/detection/health.hpp"
 #include "palletd/detection/layer.hpp"
 #include "palletd/detection/status.hpp"
@@ -62,6 +63,8 @@ struct DetectionParams {
   ContourParams contour;
   LayoutParams layout;
   PickOrder pick_order = PickOrder::kFarCornerFirst;
+  /// The gripper (config `gripper`); null: no pickability, TCP poses or groups.
+  std::optional<GripperParams> gripper;
   DepthNoiseModel noise_model;  ///< the camera's depth noise, for the frame's health (`health.noise_model`)
 };
 
@@ -80,6 +83,7 @@ struct DetectedBox {
   Box2d in_layer;        ///< the same box in the layer frame
   std::optional<Eigen::Vector3d> base_position;  ///< [m] when T_base_camera is known
   std::optional<double> base_yaw_deg;            ///< [deg] (-180, 180]
+  std::optional<BoxPick> pick;  ///< with a gripper: pickable now, why not, the TCP
 };
 
 struct Detection {
@@ -111,6 +115,8 @@ struct Detection {
   /// The height above the pallet is not a whole number of box heights (ambiguous is set too).
   bool height_off_layers = false;
   std::vector<DetectedBox> boxes;
+  /// With a gripper: the picks that can be made now, in pick order (each pickable box is in one).
+  std::vector<PickGroup> groups;
   FrameHealth health;  ///< how well the camera saw the cell in this frame (every readable frame)
   LayerResult layer;  ///< the first half's result, for overlays and diagnostics
 };
