@@ -100,10 +100,11 @@ Expected<PlcClient::TriggerResult> PlcClient::trigger(std::uint16_t recipe, std:
                          ? WordOrder::kLowWordFirst
                          : WordOrder::kHighWordFirst;
     if (Status s = read(kResultStart, kResultCount, image); !s) return Error{s.error()};
+    if (Status s = read(kPickStart, kPickCount, image); !s) return Error{s.error()};
     out.result = decode_result(image, out.word_order);
     out.status = decode_status(image, out.word_order);
-    // Several reads belong together only when the result id at both ends agrees.
-    if (out.result.result_id == out.result.result_id_copy && out.result.record.request_id == request_id) break;
+    // Several reads belong together only when the result id in 200, 530, 540 and 902 agrees.
+    if (out.result.ids_agree() && out.result.record.request_id == request_id) break;
     if (Clock::now() >= deadline) return Error{"timed out waiting for the result of request " +
                                                std::to_string(request_id)};
   }

@@ -134,8 +134,8 @@ std::vector<HandshakeEvent> Handshake::on_control_written(const std::uint16_t* c
 void Handshake::on_result(const ResultRecord& result, Clock::time_point now) {
   if (result_unacked_) overrun_ = true;
   result_id_ = static_cast<std::uint16_t>(result_id_ == 0xFFFF ? 1 : result_id_ + 1);
-  // Result block (with its id in 200 and 530) first, then the status bits: within one register
-  // image update, so a reader between requests sees all of it or none of it.
+  // Result and pick blocks (with the id in 200, 530, 540 and 902) first, then the status bits:
+  // within one register image update, so a reader between requests sees all of it or none of it.
   encode_result(result, result_id_, options_.word_order, image_);
   result_ready_ = true;
   result_unacked_ = true;

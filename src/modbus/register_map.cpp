@@ -116,6 +116,60 @@ void clear_result(RegisterImage& image) {
   std::fill_n(image.begin() + kResultExtStart, kResultExtCount, std::uint16_t{0});
 }
 
+namespace {
+
+std::int16_t as_i16(std::uint16_t v) {
+  return v <= 0x7FFF ? static_cast<std::int16_t>(v) : static_cast<std::int16_t>(-static_cast<int>(0xFFFF - v) - 1);
+}
+
+/// x, y, z (int32, 0.1 mm) and yaw (int16, 0.01 deg) of a box or group slot.
+template <typename Pose>
+void encode_pose(const Pose& pose, WordOrder order, std::uint16_t* slot) {
+  put_i32(slot + 0, metres_to_tenth_mm(pose.x_m), order);
+  put_i32(slot + 2, metres_to_tenth_mm(pose.y_m), order);
+  put_i32(slot + 4, metres_to_tenth_mm(pose.z_m), order);
+  slot[6] = static_cast<std::uint16_t>(degrees_to_hundredths(pose.yaw_deg));
+}
+
+template <typename Pose>
+void decode_pose(const std::uint16_t* slot, WordOrder order, Pose& pose) {
+  pose.x_m = tenth_mm_to_metres(get_i32(slot + 0, order));
+  pose.y_m = tenth_mm_to_metres(get_i32(slot + 2, order));
+  pose.z_m = tenth_mm_to_metres(get_i32(slot + 4, order));
+  pose.yaw_deg = hundredths_to_degrees(as_i16(slot[6]));
+}
+
+/// A group is reported when all its boxes lie in the reported box slots: the PLC then finds each
+/// of them in 210 + 10 i.
+bool group_in_slots(const GroupRecord& group, std::uint16_t reported_boxes) {
+  return group.box_count > 0 && group.first_box + group.box_count <= reported_boxes;
+}
+
+/// Registers 540..902 of a result that carries pick data (encode_result() cleared them).
+void encode_picks(const ResultRecord& result, std::uint16_t reported_boxes, WordOrder order,
+                  std::uint16_t* r) {
+  r[kRegPickFlags] = kPickGripper;
+  r[kRegGroupsFound] = static_cast<std::uint16_t>(
+      std::min<std::size_t>(std::max<std::size_t>(result.groups_found, result.groups.size()), 65535));
+  r[kRegPickableBoxes] = result.pickable_boxes;
+  std::uint16_t reported = 0;
+  for (const GroupRecord& g : result.groups) {
+    if (reported == kMaxGroups) break;
+    if (!group_in_slots(g, reported_boxes)) continue;
+    std::uint16_t* slot = r + kGroupStart + kGroupStride * reported;
+    encode_pose(g, order, slot);
+    slot[7] = g.box_count;
+    slot[8] = g.first_box;
+    slot[9] = g.pick_index;
+    ++reported;
+  }
+  r[kRegGroupsReported] = reported;
+  for (std::uint16_t i = 0; i < reported_boxes; ++i)
+    r[kPickStatusStart + i] = static_cast<std::uint16_t>(result.boxes[i].pick_status);
+}
+
+}  // namespace
+
 void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
                    RegisterImage& image) {
   clear_result(image);
@@ -151,15 +205,16 @@ void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrde
   for (std::uint16_t i = 0; i < reported; ++i) {
     const BoxRecord& b = result.boxes[i];
     std::uint16_t* slot = r + kBoxStart + kBoxStride * i;
-    put_i32(slot + 0, metres_to_tenth_mm(b.x_m), order);
-    put_i32(slot + 2, metres_to_tenth_mm(b.y_m), order);
-    put_i32(slot + 4, metres_to_tenth_mm(b.z_m), order);
-    slot[6] = static_cast<std::uint16_t>(degrees_to_hundredths(b.yaw_deg));
+    encode_pose(b, order, slot);
     slot[7] = b.format;
     slot[8] = unit_to_permille(b.score);
     slot[9] = b.pick_index;
   }
+  // A failed result has no boxes to pick (its record may still carry the detection's picks).
+  if (result.picking && result.status != ResultStatus::kFailed) encode_picks(result, reported, order, r);
+  r[kRegPickResultId] = result_id;
   r[kResultIdCopy] = result_id;
+  r[kPickIdCopy] = result_id;
 }
 
 ControlRecord decode_control(const RegisterImage& image) {
@@ -172,9 +227,30 @@ ControlRecord decode_control(const RegisterImage& image) {
 }
 
 namespace {
-std::int16_t as_i16(std::uint16_t v) {
-  return v <= 0x7FFF ? static_cast<std::int16_t>(v) : static_cast<std::int16_t>(-static_cast<int>(0xFFFF - v) - 1);
+
+
+/// Registers 540..902 into `d` (the boxes are decoded already).
+void decode_picks(const std::uint16_t* r, WordOrder order, DecodedResult& d) {
+  d.pick_result_id = r[kRegPickResultId];
+  d.pick_result_id_copy = r[kPickIdCopy];
+  ResultRecord& rec = d.record;
+  rec.picking = (r[kRegPickFlags] & kPickGripper) != 0;
+  rec.groups_found = r[kRegGroupsFound];
+  rec.pickable_boxes = r[kRegPickableBoxes];
+  const std::uint16_t reported = std::min<std::uint16_t>(r[kRegGroupsReported], kMaxGroups);
+  for (std::uint16_t g = 0; g < reported; ++g) {
+    const std::uint16_t* slot = r + kGroupStart + kGroupStride * g;
+    GroupRecord group;
+    decode_pose(slot, order, group);
+    group.box_count = slot[7];
+    group.first_box = slot[8];
+    group.pick_index = slot[9];
+    rec.groups.push_back(group);
+  }
+  for (std::size_t i = 0; i < rec.boxes.size(); ++i)
+    rec.boxes[i].pick_status = static_cast<PickStatus>(r[kPickStatusStart + i]);
 }
+
 }  // namespace
 
 DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
@@ -203,15 +279,13 @@ DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
   for (std::uint16_t i = 0; i < reported; ++i) {
     const std::uint16_t* slot = r + kBoxStart + kBoxStride * i;
     BoxRecord b;
-    b.x_m = tenth_mm_to_metres(get_i32(slot + 0, order));
-    b.y_m = tenth_mm_to_metres(get_i32(slot + 2, order));
-    b.z_m = tenth_mm_to_metres(get_i32(slot + 4, order));
-    b.yaw_deg = hundredths_to_degrees(as_i16(slot[6]));
+    decode_pose(slot, order, b);
     b.format = slot[7];
     b.score = slot[8] * 1e-3;
     b.pick_index = slot[9];
     rec.boxes.push_back(b);
   }
+  decode_picks(r, order, d);
   return d;
 }
 

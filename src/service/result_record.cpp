@@ -18,6 +18,18 @@ modbus::DetectionFailure failure_of(DetectionStatus status) {
   return modbus::DetectionFailure::kUnknown;
 }
 
+modbus::PickStatus pick_status_of(const BoxPick& pick) {
+  if (pick.pickable) return modbus::PickStatus::kPickable;
+  switch (pick.blocked_by) {
+    case PickBlock::kRoi: return modbus::PickStatus::kRoi;
+    case PickBlock::kHigherLevel: return modbus::PickStatus::kHigherLevel;
+    case PickBlock::kYawLimits: return modbus::PickStatus::kYawLimits;
+    case PickBlock::kNeighbour:
+    case PickBlock::kNone: break;  // not pickable now for no lasting reason: what stands around it
+  }
+  return modbus::PickStatus::kNeighbour;
+}
+
 namespace {
 
 // Layer "height": base z of the layer under the boxes when calibrated; else the depth at which
@@ -31,6 +43,34 @@ double layer_z_m(const Detection& detection, bool base_frame) {
   const Plane& p = detection.plane_camera;
   if (std::abs(p.normal.z()) < 1e-9) return 0.0;
   return -p.d / p.normal.z();
+}
+
+std::uint16_t saturate_u16(std::size_t n) { return static_cast<std::uint16_t>(std::min<std::size_t>(n, 65535)); }
+
+// The pick fields of `r` (its boxes filled already) from the boxes' `pick` and the detection's
+// groups. Both hold the boxes in pick order, so a group's first box index is its first box slot.
+void fill_picks(const Detection& detection, modbus::ResultRecord& r) {
+  r.picking = std::any_of(detection.boxes.begin(), detection.boxes.end(),
+                          [](const DetectedBox& b) { return b.pick.has_value(); });
+  if (!r.picking) return;
+  r.pickable_boxes = saturate_u16(static_cast<std::size_t>(
+      std::count_if(detection.boxes.begin(), detection.boxes.end(),
+                    [](const DetectedBox& b) { return b.pick && b.pick->pickable; })));
+  for (std::size_t i = 0; i < r.boxes.size(); ++i)
+    if (detection.boxes[i].pick) r.boxes[i].pick_status = pick_status_of(*detection.boxes[i].pick);
+  r.groups_found = saturate_u16(detection.groups.size());
+  for (const PickGroup& g : detection.groups) {
+    if (g.boxes.empty()) continue;
+    modbus::GroupRecord out;
+    out.x_m = g.tcp.position_m.x();
+    out.y_m = g.tcp.position_m.y();
+    out.z_m = g.tcp.position_m.z();
+    out.yaw_deg = g.tcp.yaw_deg;
+    out.box_count = saturate_u16(g.boxes.size());
+    out.first_box = static_cast<std::uint16_t>(std::clamp(g.boxes.front(), 0, 65535));
+    out.pick_index = static_cast<std::uint16_t>(std::clamp(g.pick_index + 1, 0, 65535));
+    r.groups.push_back(out);
+  }
 }
 
 }  // namespace
@@ -74,6 +114,7 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
   r.outline_unobserved = detection.outline_unobserved;
   r.layer_z_m = detection.status == DetectionStatus::kOk ? layer_z_m(detection, base_frame) : 0.0;
   r.coverage = detection.coverage;
+  fill_picks(detection, r);
   auto total = detection.timing_ms.find("total");
   r.processing_ms = total != detection.timing_ms.end() ? total->second : 0.0;
   return r;

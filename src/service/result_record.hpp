@@ -11,8 +11,13 @@
 namespace palletd {
 
 /// Fills the result record of a detection that ran. Poses in the base frame when `T_base_camera`
-/// is known (each box then carries base_position), else in the camera frame.
+/// is known (each box then carries base_position), else in the camera frame. The pick fields are
+/// set when the boxes carry pick data (a gripper is configured and boxes were found); the TCP
+/// poses are in the frame their TcpPose says, which follows `T_base_camera` the same way.
 modbus::ResultRecord to_result_record(const Detection& detection, bool base_frame);
+
+/// The register 870 + i status of a box: pickable, or what blocks it.
+modbus::PickStatus pick_status_of(const BoxPick& pick);
 
 /// The register-102 detail of a failed detection.
 modbus::DetectionFailure failure_of(DetectionStatus status);

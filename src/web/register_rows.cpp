@@ -216,6 +216,74 @@ Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult
   return result;
 }
 
+/// The JSON word of a box slot's pick status (register 870 + i).
+const char* pick_status_word(modbus::PickStatus status) {
+  switch (status) {
+    case modbus::PickStatus::kPickable: return "pickable";
+    case modbus::PickStatus::kRoi: return "roi";
+    case modbus::PickStatus::kHigherLevel: return "higher_level";
+    case modbus::PickStatus::kYawLimits: return "yaw_limits";
+    case modbus::PickStatus::kNeighbour: return "neighbour";
+  }
+  return "unknown value";
+}
+
+/// One row per reported group (550 + 10 g): the TCP, and which box slots the pick takes.
+void group_rows(const modbus::RegisterImage& image, const modbus::ResultRecord& rec, Json& rows) {
+  for (std::size_t g = 0; g < rec.groups.size(); ++g) {
+    const modbus::GroupRecord& grp = rec.groups[g];
+    const auto address = static_cast<std::uint16_t>(modbus::kGroupStart + modbus::kGroupStride * g);
+    const std::string tcp = "(" + fixed(grp.x_m * 1000.0, 1) + ", " + fixed(grp.y_m * 1000.0, 1) + ", " +
+                            fixed(grp.z_m * 1000.0, 1) + ") mm, " + fixed(grp.yaw_deg, 2) + " deg";
+    const int last = grp.first_box + grp.box_count - 1;
+    const std::string slots = grp.box_count > 1 ? "slots " + std::to_string(grp.first_box) + "-" + std::to_string(last)
+                                                : "slot " + std::to_string(grp.first_box);
+    rows.push_back(row(image, address, modbus::kGroupStride, "group " + std::to_string(g), tcp,
+                       "pick " + std::to_string(grp.pick_index) + ": the TCP for box " + slots));
+  }
+}
+
+/// One row for the reported box slots' pick statuses (870 + i): the blocked slots by name.
+void box_pick_row(const modbus::RegisterImage& image, const modbus::ResultRecord& rec, Json& rows) {
+  if (!rec.picking || rec.boxes.empty()) return;
+  std::size_t pickable = 0;
+  std::string blocked;
+  for (std::size_t i = 0; i < rec.boxes.size(); ++i) {
+    const modbus::PickStatus status = rec.boxes[i].pick_status;
+    if (status == modbus::PickStatus::kPickable) {
+      ++pickable;
+    } else {
+      blocked += "slot " + std::to_string(i) + " " + pick_status_word(status) + "; ";
+    }
+  }
+  if (!blocked.empty()) blocked.resize(blocked.size() - 2);
+  rows.push_back(row(image, modbus::kPickStatusStart, static_cast<int>(rec.boxes.size()), "box pick status",
+                     std::to_string(pickable) + " of " + std::to_string(rec.boxes.size()) + " pickable",
+                     blocked.empty() ? "every reported box pickable" : blocked));
+}
+
+/// Rows of the pick block 540..902: header 540..544, the reported groups, the box slots' pick
+/// statuses and the result id copy in 902.
+Json pick_rows(const modbus::RegisterImage& image, const modbus::DecodedResult& res) {
+  const modbus::ResultRecord& rec = res.record;
+  Json rows = Json::array();
+  rows.push_back(row(image, modbus::kRegPickResultId, 1, "pick result id", std::to_string(res.pick_result_id),
+                     res.pick_result_id == res.result_id ? "matches 200" : "differs from 200: torn read"));
+  rows.push_back(row(image, modbus::kRegPickFlags, 1, "pick flags", hex16(image[modbus::kRegPickFlags]),
+                     rec.picking ? "gripper configured: pick data valid" : "no pick data (no gripper or no boxes)"));
+  rows.push_back(row(image, modbus::kRegGroupsFound, 1, "groups found", std::to_string(rec.groups_found),
+                     "picks the robot can make now"));
+  rows.push_back(row(image, modbus::kRegGroupsReported, 1, "groups reported", plain(image, modbus::kRegGroupsReported),
+                     "in 550 + 10 g (those within the reported box slots)"));
+  rows.push_back(row(image, modbus::kRegPickableBoxes, 1, "pickable boxes", std::to_string(rec.pickable_boxes),
+                     "among all boxes found"));
+  group_rows(image, rec, rows);
+  box_pick_row(image, rec, rows);
+  rows.push_back(row(image, modbus::kPickIdCopy, 1, "pick result id copy", std::to_string(res.pick_result_id_copy),
+                     res.pick_result_id_copy == res.result_id ? "matches 200" : "differs from 200: torn read"));
+  return rows;
+}
+
 /// One row per reported box slot (210 + 10 i).
 Json box_rows(const modbus::ResultRecord& rec) {
   Json boxes = Json::array();
@@ -242,14 +310,15 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
   const modbus::DecodedResult res = modbus::decode_result(image, order);
   const Json control = control_rows(image);
   const Json status = status_rows(image, order);
-  const Json result = result_rows(image, res);
+  Json result = result_rows(image, res);
+  for (Json& r : pick_rows(image, res)) result.push_back(std::move(r));
   const Json boxes = box_rows(res.record);
   Json out;
   out["word_order"] = order == modbus::WordOrder::kLowWordFirst ? "low word first" : "high word first";
   out["blocks"] = Json::array(
       {Json{{"name", "control"}, {"title", "Control block 0-15 (written by the PLC)"}, {"rows", control}},
        Json{{"name", "status"}, {"title", "Status block 100-129 (read-only)"}, {"rows", status}},
-       Json{{"name", "result"}, {"title", "Result block 200-209, 530 and its extension 130-134 (read-only)"}, {"rows", result}},
+       Json{{"name", "result"}, {"title", "Result block 200-209, 530, its extension 130-134 and the pick block 540-902 (read-only)"}, {"rows", result}},
        Json{{"name", "connections"}, {"title", "Modbus connections 140-145 (read-only)"},
             {"rows", connection_rows(image, order)}},
        Json{{"name", "health"}, {"title", "Cell health 146-155 (read-only)"}, {"rows", health_rows(image, order)}}});

@@ -296,3 +296,162 @@ TEST_CASE("the cell health block 146..155: flags, window, shares in per mille, r
   encode_status(s, WordOrder::kHighWordFirst, image);
   CHECK(image[kRegDriftShift] == 65535);
 }
+
+namespace {
+GroupRecord make_group(std::uint16_t first_box, std::uint16_t box_count, std::uint16_t pick_index) {
+  return GroupRecord{0.25 * first_box - 1.0, -0.1234 - 0.01 * first_box, 0.8 + 0.001 * box_count,
+                     -90.0 + 10.0 * pick_index, box_count, first_box, pick_index};
+}
+
+/// Five boxes: slots 0-1 one pick, slot 3 another; slot 2 waits for a neighbour, slot 4 is at a wall.
+ResultRecord make_picking_result() {
+  ResultRecord r = make_result(5);
+  r.picking = true;
+  r.boxes[2].pick_status = PickStatus::kNeighbour;
+  r.boxes[4].pick_status = PickStatus::kRoi;
+  r.groups = {make_group(0, 2, 1), make_group(3, 1, 2)};
+  r.groups_found = 2;
+  r.pickable_boxes = 3;
+  return r;
+}
+}  // namespace
+
+TEST_CASE("a result with picks encodes the pick block and decodes back in both word orders",
+          "[modbus][register_map]") {
+  CHECK(kRegisterCount == 903);  // the pick block 540..902 ends the register space
+  for (const WordOrder order : {WordOrder::kHighWordFirst, WordOrder::kLowWordFirst}) {
+    RegisterImage image{};
+    image.fill(0xABCD);
+    const ResultRecord in = make_picking_result();
+    encode_result(in, 77, order, image);
+    CHECK(image[kRegPickResultId] == 77);
+    CHECK(image[kPickIdCopy] == 77);
+    CHECK(image[kRegPickFlags] == kPickGripper);
+    CHECK(image[kRegGroupsFound] == 2);
+    CHECK(image[kRegGroupsReported] == 2);
+    CHECK(image[kRegPickableBoxes] == 3);
+    for (std::uint16_t a = kResultIdCopy + 1; a < kPickStart; ++a) CHECK(image[a] == 0);
+    for (std::uint16_t a = kRegPickableBoxes + 1; a < kGroupStart; ++a) CHECK(image[a] == 0);
+    // group 1: TCP, box count, first box slot, pick index at 560..569
+    const std::uint16_t* g1 = &image[kGroupStart + kGroupStride];
+    const bool high_first = order == WordOrder::kHighWordFirst;
+    CHECK(get_i32(g1, order) == -2500);  // x -0.25 m = 0xFFFFF63C in the word order
+    CHECK(g1[0] == (high_first ? 0xFFFF : 0xF63C));
+    CHECK(g1[1] == (high_first ? 0xF63C : 0xFFFF));
+    CHECK(get_i32(g1 + 4, order) == 8010);
+    CHECK(g1[6] == static_cast<std::uint16_t>(degrees_to_hundredths(-70.0)));
+    CHECK(g1[7] == 1);
+    CHECK(g1[8] == 3);
+    CHECK(g1[9] == 2);
+    for (std::uint16_t a = kGroupStart + 2 * kGroupStride; a < kPickStatusStart; ++a) CHECK(image[a] == 0);
+    const std::uint16_t statuses[5] = {0, 0, 4, 0, 1};
+    for (std::uint16_t i = 0; i < 5; ++i) CHECK(image[kPickStatusStart + i] == statuses[i]);
+    for (std::uint16_t a = kPickStatusStart + 5; a < kPickIdCopy; ++a) CHECK(image[a] == 0);
+
+    const DecodedResult out = decode_result(image, order);
+    CHECK(out.pick_result_id == 77);
+    CHECK(out.pick_result_id_copy == 77);
+    CHECK(out.ids_agree());
+    CHECK(out.record.picking);
+    CHECK(out.record.groups_found == 2);
+    CHECK(out.record.pickable_boxes == 3);
+    REQUIRE(out.record.groups.size() == 2);
+    for (std::size_t g = 0; g < 2; ++g) {
+      const GroupRecord& a = in.groups[g];
+      const GroupRecord& b = out.record.groups[g];
+      CHECK(b.x_m == Approx(a.x_m).margin(0.5e-4));
+      CHECK(b.y_m == Approx(a.y_m).margin(0.5e-4));
+      CHECK(b.z_m == Approx(a.z_m).margin(0.5e-4));
+      CHECK(b.yaw_deg == Approx(a.yaw_deg).margin(0.005));
+      CHECK(b.box_count == a.box_count);
+      CHECK(b.first_box == a.first_box);
+      CHECK(b.pick_index == a.pick_index);
+    }
+    REQUIRE(out.record.boxes.size() == 5);
+    for (std::size_t i = 0; i < 5; ++i) CHECK(out.record.boxes[i].pick_status == in.boxes[i].pick_status);
+    // A new result written between two reads shows as ids that disagree.
+    RegisterImage torn = image;
+    torn[kPickIdCopy] = 78;
+    CHECK_FALSE(decode_result(torn, order).ids_agree());
+  }
+}
+
+TEST_CASE("a result without a gripper leaves 540..902 zero except the result ids",
+          "[modbus][register_map]") {
+  RegisterImage image{};
+  encode_result(make_picking_result(), 5, WordOrder::kHighWordFirst, image);
+  ResultRecord plain = make_picking_result();
+  plain.picking = false;  // groups and statuses without the flag are not encoded
+  encode_result(plain, 6, WordOrder::kHighWordFirst, image);
+  CHECK(image[kRegPickResultId] == 6);
+  CHECK(image[kPickIdCopy] == 6);
+  for (std::uint16_t a = kResultIdCopy + 1; a < kPickIdCopy; ++a) {
+    if (a == kRegPickResultId) continue;
+    INFO("register " << a);
+    CHECK(image[a] == 0);
+  }
+  const DecodedResult out = decode_result(image, WordOrder::kHighWordFirst);
+  CHECK(out.ids_agree());
+  CHECK_FALSE(out.record.picking);
+  CHECK(out.record.groups.empty());
+
+  // A failed result has nothing to pick even when its record still carries picks.
+  ResultRecord failed = make_picking_result();
+  failed.status = ResultStatus::kFailed;
+  failed.boxes.clear();
+  encode_result(failed, 7, WordOrder::kHighWordFirst, image);
+  CHECK(image[kRegPickFlags] == 0);
+  CHECK(image[kRegGroupsFound] == 0);
+  CHECK(image[kRegPickableBoxes] == 0);
+  CHECK(image[kPickIdCopy] == 7);
+}
+
+TEST_CASE("groups beyond the 32 reported box slots are counted but not reported",
+          "[modbus][register_map]") {
+  // 40 boxes in pairs: pairs 0..15 lie in slots 0..31, pairs 16..19 beyond.
+  ResultRecord pairs = make_result(40);
+  pairs.picking = true;
+  for (std::uint16_t g = 0; g < 20; ++g)
+    pairs.groups.push_back(make_group(static_cast<std::uint16_t>(2 * g), 2, static_cast<std::uint16_t>(g + 1)));
+  pairs.groups_found = 20;
+  RegisterImage image{};
+  encode_result(pairs, 3, WordOrder::kLowWordFirst, image);
+  CHECK(image[kRegGroupsFound] == 20);
+  CHECK(image[kRegGroupsReported] == 16);
+  CHECK(image[kGroupStart + kGroupStride * 15 + 8] == 30);  // the last group: slots 30-31
+  for (std::uint16_t a = kGroupStart + kGroupStride * 16; a < kPickStatusStart; ++a) CHECK(image[a] == 0);
+  CHECK(decode_result(image, WordOrder::kLowWordFirst).record.groups.size() == 16);
+
+  // A group that starts in slot 31 but takes slot 32 too is not reported either: the PLC could
+  // not find all of its boxes.
+  ResultRecord straddling = make_result(40);
+  straddling.picking = true;
+  straddling.groups = {make_group(0, 1, 1), make_group(31, 2, 2), make_group(33, 1, 3)};
+  straddling.groups_found = 3;
+  encode_result(straddling, 4, WordOrder::kLowWordFirst, image);
+  CHECK(image[kRegGroupsFound] == 3);
+  CHECK(image[kRegGroupsReported] == 1);
+
+  // One box per pick: at most 32 groups, one per reported slot.
+  ResultRecord singles = make_result(40);
+  singles.picking = true;
+  for (std::uint16_t g = 0; g < 40; ++g)
+    singles.groups.push_back(make_group(g, 1, static_cast<std::uint16_t>(g + 1)));
+  encode_result(singles, 5, WordOrder::kLowWordFirst, image);
+  CHECK(image[kRegGroupsFound] == 40);  // groups_found 0 counts the groups given
+  CHECK(image[kRegGroupsReported] == kMaxGroups);
+  CHECK(image[kGroupStart + kGroupStride * 31 + 8] == 31);
+  CHECK(image[kPickIdCopy] == 5);
+}
+
+TEST_CASE("clear_result clears the pick block", "[modbus][register_map]") {
+  RegisterImage image{};
+  encode_result(make_picking_result(), 9, WordOrder::kHighWordFirst, image);
+  REQUIRE(image[kRegPickFlags] == kPickGripper);
+  clear_result(image);
+  for (std::size_t a = kResultStart; a < kRegisterCount; ++a) {
+    INFO("register " << a);
+    CHECK(image[a] == 0);
+  }
+  CHECK_FALSE(decode_result(image, WordOrder::kHighWordFirst).record.picking);
+}

@@ -27,9 +27,11 @@ TEST_CASE("status and result blocks read as holding and input registers (FC3, FC
   std::uint16_t many[125] = {};
   CHECK(modbus_read_registers(c.ctx, 0, 125, many) == 125);
   CHECK(modbus_read_input_registers(c.ctx, 406, 125, many) == 125);  // up to 530
-  CHECK(modbus_read_registers(c.ctx, 530, 2, many) == -1);
+  CHECK(modbus_read_registers(c.ctx, 530, 2, many) == 2);              // across the gap 531..539
+  CHECK(modbus_read_input_registers(c.ctx, 778, 125, many) == 125);  // up to 902
+  CHECK(modbus_read_registers(c.ctx, 902, 2, many) == -1);
   CHECK(errno == EMBXILADD);
-  CHECK(modbus_read_input_registers(c.ctx, 600, 1, many) == -1);
+  CHECK(modbus_read_input_registers(c.ctx, kRegisterCount, 1, many) == -1);
   CHECK(errno == EMBXILADD);
 }
 
@@ -65,9 +67,50 @@ TEST_CASE("the handshake over FC16 and FC6 with a published result", "[modbus][s
   CHECK(get_i32(block + 14, WordOrder::kHighWordFirst) == 12500);
   CHECK(block[16] == 9000);
   CHECK(c.reg(kResultIdCopy) == 1);
+  CHECK(c.reg(kRegPickResultId) == 1);
+  CHECK(c.reg(kRegPickFlags) == 0);  // no gripper
+  CHECK(c.reg(kPickIdCopy) == 1);
   REQUIRE(modbus_write_register(c.ctx, 0, kCtlResultAck) == 1);
   CHECK((c.reg(kRegStatusWord) & kStResultReady) == 0);
   CHECK(s.server.registers()[kRegResultId] == 1);
+}
+
+TEST_CASE("the pick block over the wire: header, groups and box pick statuses in 540..902",
+          "[modbus][server]") {
+  Server s;
+  Client c("127.0.0.1", s.port());
+  REQUIRE(c.connected);
+  auto result = std::make_shared<ResultRecord>();
+  result->boxes_found = 3;
+  for (int i = 0; i < 3; ++i)
+    result->boxes.push_back(BoxRecord{0.1 * i, 0.5, 1.25, 90.0, 0, 0.75, static_cast<std::uint16_t>(i + 1)});
+  result->boxes[2].pick_status = PickStatus::kHigherLevel;
+  result->picking = true;
+  result->groups.push_back(GroupRecord{0.05, 0.5, 1.3, -45.0, 2, 0, 1});
+  result->groups_found = 1;
+  result->pickable_boxes = 2;
+  s.server.publish_result(result);
+  REQUIRE(wait_bits(c, kRegStatusWord, kStResultReady, kStResultReady));
+  std::uint16_t head[kPickHeaderCount + kGroupStride] = {};
+  REQUIRE(modbus_read_registers(c.ctx, kPickStart, 20, head) == 20);
+  CHECK(head[0] == 1);             // result id
+  CHECK(head[1] == kPickGripper);  // pick flags
+  CHECK(head[2] == 1);             // groups found
+  CHECK(head[3] == 1);             // groups reported
+  CHECK(head[4] == 2);             // pickable boxes
+  CHECK(get_i32(head + 10, WordOrder::kHighWordFirst) == 500);
+  CHECK(get_i32(head + 14, WordOrder::kHighWordFirst) == 13000);
+  CHECK(head[16] == static_cast<std::uint16_t>(-4500));
+  CHECK(head[17] == 2);  // box count
+  CHECK(head[18] == 0);  // first box slot
+  CHECK(head[19] == 1);  // pick index
+  std::uint16_t tail[kMaxBoxes + 1] = {};
+  REQUIRE(modbus_read_input_registers(c.ctx, kPickStatusStart, kMaxBoxes + 1, tail) == kMaxBoxes + 1);
+  CHECK(tail[0] == 0);
+  CHECK(tail[1] == 0);
+  CHECK(tail[2] == 2);  // higher level
+  CHECK(tail[3] == 0);  // unused slot
+  CHECK(tail[kMaxBoxes] == 1);  // 902: result id copy
 }
 
 TEST_CASE("coils mirror the control word, discrete inputs the status word (FC1, FC2, FC5, FC15)",
@@ -125,9 +168,10 @@ TEST_CASE("quantity limits, address ranges and unknown functions get their excep
   CHECK(exception_of(ask(RawClient::read_pdu(3, 0, 126))) == 3);
   CHECK(exception_of(ask(RawClient::read_pdu(4, 0, 126))) == 3);
   CHECK(exception_of(ask(RawClient::read_pdu(3, 0, 0))) == 3);
-  CHECK(exception_of(ask(RawClient::read_pdu(3, 500, 31))) == 0);
-  CHECK(exception_of(ask(RawClient::read_pdu(3, 500, 32))) == 2);
-  CHECK(exception_of(ask(RawClient::read_pdu(4, 531, 1))) == 2);
+  CHECK(exception_of(ask(RawClient::read_pdu(3, 500, 32))) == 0);
+  CHECK(exception_of(ask(RawClient::read_pdu(3, 778, 125))) == 0);
+  CHECK(exception_of(ask(RawClient::read_pdu(3, 779, 125))) == 2);
+  CHECK(exception_of(ask(RawClient::read_pdu(4, 903, 1))) == 2);
   CHECK(exception_of(ask(RawClient::read_pdu(1, 0, 2001))) == 3);
   CHECK(exception_of(ask({5, 0, 0, 0x12, 0x34})) == 3);  // coil value neither 0 nor FF00
   CHECK(exception_of(ask({0x07})) == 1);

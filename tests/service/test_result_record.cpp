@@ -97,3 +97,78 @@ TEST_CASE("more boxes than the register map holds are counted but only 32 report
   CHECK(r.boxes_found == 40);
   CHECK(r.boxes.size() == palletd::modbus::kMaxBoxes);
 }
+
+namespace {
+palletd::BoxPick pick_of(bool pickable, palletd::PickBlock blocked_by) {
+  palletd::BoxPick p;
+  p.pickable = pickable;
+  p.blocked_by = blocked_by;
+  return p;
+}
+}  // namespace
+
+TEST_CASE("with a gripper the record carries the groups, their TCP and each box's pick status") {
+  using palletd::PickBlock;
+  using palletd::modbus::PickStatus;
+  Detection d;
+  d.status = DetectionStatus::kOk;
+  d.boxes = {box_at(0.1, 0.2, 1.5, 0), box_at(-0.1, 0.2, 1.5, 1), box_at(0.3, 0.2, 1.5, 2),
+             box_at(0.5, 0.2, 1.5, 3), box_at(0.7, 0.2, 1.5, 4)};
+  d.boxes[0].pick = pick_of(true, PickBlock::kNone);
+  d.boxes[1].pick = pick_of(true, PickBlock::kNone);
+  d.boxes[2].pick = pick_of(true, PickBlock::kNone);
+  d.boxes[3].pick = pick_of(false, PickBlock::kNeighbour);
+  d.boxes[4].pick = pick_of(false, PickBlock::kYawLimits);
+  palletd::PickGroup pair;
+  pair.boxes = {0, 1};
+  pair.tcp.position_m = {1.0, 2.0, 0.75};
+  pair.tcp.yaw_deg = 90.0;
+  pair.tcp.base_frame = true;
+  pair.pick_index = 0;
+  palletd::PickGroup single;
+  single.boxes = {2};
+  single.tcp.position_m = {1.2, 2.0, 0.75};
+  single.tcp.yaw_deg = -179.5;
+  single.pick_index = 1;
+  d.groups = {pair, single};
+  const auto r = palletd::to_result_record(d, true);
+  CHECK(r.picking);
+  CHECK(r.groups_found == 2);
+  CHECK(r.pickable_boxes == 3);
+  REQUIRE(r.groups.size() == 2);
+  CHECK(r.groups[0].first_box == 0);
+  CHECK(r.groups[0].box_count == 2);
+  CHECK(r.groups[0].pick_index == 1);
+  CHECK(r.groups[0].x_m == Approx(1.0));
+  CHECK(r.groups[0].z_m == Approx(0.75));
+  CHECK(r.groups[0].yaw_deg == Approx(90.0));
+  CHECK(r.groups[1].first_box == 2);
+  CHECK(r.groups[1].box_count == 1);
+  CHECK(r.groups[1].pick_index == 2);
+  CHECK(r.groups[1].yaw_deg == Approx(-179.5));
+  REQUIRE(r.boxes.size() == 5);
+  CHECK(r.boxes[0].pick_status == PickStatus::kPickable);
+  CHECK(r.boxes[2].pick_status == PickStatus::kPickable);
+  CHECK(r.boxes[3].pick_status == PickStatus::kNeighbour);
+  CHECK(r.boxes[4].pick_status == PickStatus::kYawLimits);
+  CHECK(palletd::pick_status_of(pick_of(false, PickBlock::kRoi)) == PickStatus::kRoi);
+  CHECK(palletd::pick_status_of(pick_of(false, PickBlock::kHigherLevel)) == PickStatus::kHigherLevel);
+
+  // Encoded, the PLC finds the pair in group 0 and the statuses in 870 + i.
+  palletd::modbus::RegisterImage image{};
+  palletd::modbus::encode_result(r, 1, palletd::modbus::WordOrder::kHighWordFirst, image);
+  CHECK(image[palletd::modbus::kRegPickFlags] == palletd::modbus::kPickGripper);
+  CHECK(image[palletd::modbus::kRegGroupsReported] == 2);
+  CHECK(image[palletd::modbus::kPickStatusStart + 3] == 4);
+  CHECK(image[palletd::modbus::kPickStatusStart + 4] == 3);
+}
+
+TEST_CASE("without a gripper the record has no pick data") {
+  Detection d;
+  d.status = DetectionStatus::kOk;
+  d.boxes = {box_at(0.1, 0.2, 1.5, 0)};
+  const auto r = palletd::to_result_record(d, false);
+  CHECK_FALSE(r.picking);
+  CHECK(r.groups.empty());
+  CHECK(r.pickable_boxes == 0);
+}

@@ -31,7 +31,7 @@ class PlcClient {
     double handshake_ms = 0.0;     ///< trigger written to ResultReady seen [ms]
   };
   /// Waits for Ready and not Busy, triggers with `recipe` and `request_id`, waits for the result,
-  /// reads it consistently (result id in 200 and 530 agree), acknowledges it.
+  /// reads it consistently (result id in 200, 530, 540 and 902 agree), acknowledges it.
   Expected<TriggerResult> trigger(std::uint16_t recipe, std::uint16_t request_id, std::chrono::milliseconds timeout);
 
  private:

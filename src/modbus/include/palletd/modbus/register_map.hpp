@@ -22,7 +22,19 @@ inline constexpr std::uint16_t kBoxStride = 10;
 inline constexpr std::uint16_t kMaxBoxes = 32;
 inline constexpr std::uint16_t kResultIdCopy = 530;  ///< copy of register 200
 inline constexpr std::uint16_t kResultCount = kResultIdCopy - kResultStart + 1;  ///< 200..530
-inline constexpr std::uint16_t kRegisterCount = kResultIdCopy + 1;              ///< 0..530
+// pick block 540..902, read-only: written with each result (same image update), cleared with it
+inline constexpr std::uint16_t kPickStart = 540;
+inline constexpr std::uint16_t kPickHeaderCount = 10;  ///< 540..549 (545..549 reserved, read 0)
+inline constexpr std::uint16_t kGroupStart = 550;
+inline constexpr std::uint16_t kGroupStride = 10;
+inline constexpr std::uint16_t kMaxGroups = 32;
+inline constexpr std::uint16_t kPickStatusStart = 870;  ///< 870 + i: PickStatus of box slot i
+inline constexpr std::uint16_t kPickIdCopy = 902;       ///< copy of register 200
+inline constexpr std::uint16_t kPickCount = kPickIdCopy - kPickStart + 1;  ///< 540..902
+inline constexpr std::uint16_t kRegisterCount = kPickIdCopy + 1;          ///< 0..902
+static_assert(kGroupStart == kPickStart + kPickHeaderCount);
+static_assert(kPickStatusStart == kGroupStart + kGroupStride * kMaxGroups);
+static_assert(kPickIdCopy == kPickStatusStart + kMaxBoxes);
 inline constexpr std::uint16_t kInterfaceVersion = 1;
 inline constexpr std::uint32_t kTestPattern = 0x12345678u;
 
@@ -90,6 +102,12 @@ inline constexpr std::uint16_t kRegRecipeUsed = 205;
 inline constexpr std::uint16_t kRegResultFlags = 206;
 inline constexpr std::uint16_t kRegLayerZ = 207;  ///< 207-208
 inline constexpr std::uint16_t kRegCoverage = 209;
+// pick block header
+inline constexpr std::uint16_t kRegPickResultId = 540;   ///< same as 200
+inline constexpr std::uint16_t kRegPickFlags = 541;      ///< kPick* bits
+inline constexpr std::uint16_t kRegGroupsFound = 542;
+inline constexpr std::uint16_t kRegGroupsReported = 543;  ///< groups in 550 + 10 g
+inline constexpr std::uint16_t kRegPickableBoxes = 544;   ///< among all boxes found
 
 // control word bits (register 0)
 inline constexpr std::uint16_t kCtlTrigger = 1u << 0;
@@ -122,6 +140,8 @@ inline constexpr std::uint16_t kResLayerClipped = 1u << 2;
 inline constexpr std::uint16_t kResOutlineUnobserved = 1u << 3;
 /// The layer's height above the pallet is not a whole number of box heights (bit0 is set too).
 inline constexpr std::uint16_t kResHeightOffLayers = 1u << 4;
+// pick flags (register 541)
+inline constexpr std::uint16_t kPickGripper = 1u << 0;  ///< a gripper is configured: pick data valid
 // cell health flags (register 146)
 inline constexpr std::uint16_t kHealthInvalid = 1u << 0;    ///< pixels without depth over the limit
 inline constexpr std::uint16_t kHealthFlying = 1u << 1;     ///< mixed pixels over the limit
@@ -167,10 +187,20 @@ enum class ResultDetail : std::uint16_t {
 /// Result status in register 202.
 enum class ResultStatus : std::uint16_t { kOk = 0, kNoBoxes = 1, kFailed = 2 };
 
+/// Pick status of a box slot (registers 870..901): pickable now, or what blocks it.
+enum class PickStatus : std::uint16_t {
+  kPickable = 0,
+  kRoi = 1,          ///< the gripper would reach out of the region of interest
+  kHigherLevel = 2,  ///< something higher than the layer stands under the gripper
+  kYawLimits = 3,    ///< neither of the box's yaws is within the robot's limits
+  kNeighbour = 4,    ///< a neighbour has to go first
+};
+
 enum class WordOrder : std::uint8_t { kHighWordFirst, kLowWordFirst };
 
-/// The whole addressable register space 0..530 (control, status, result extension, connection,
-/// health and result blocks; the gaps 16..99, 135..139 and 154..199 read 0).
+/// The whole addressable register space 0..902 (control, status, result extension, connection,
+/// health, result and pick blocks; the gaps 16..99, 135..139, 154..199, 531..539 and 545..549
+/// read 0).
 using RegisterImage = std::array<std::uint16_t, kRegisterCount>;
 
 /// One box as the service computed it, in engineering units.
@@ -180,6 +210,16 @@ struct BoxRecord {
   std::uint16_t format = 0;                ///< index of the format in the recipe
   double score = 0.0;                      ///< 0..1
   std::uint16_t pick_index = 0;            ///< position in the pick order, 1 = pick first
+  PickStatus pick_status = PickStatus::kPickable;  ///< meaningful with ResultRecord::picking
+};
+
+/// One pick of the gripper: a box, or boxes in consecutive slots taken together.
+struct GroupRecord {
+  double x_m = 0.0, y_m = 0.0, z_m = 0.0;  ///< TCP position [m] (base frame, else camera)
+  double yaw_deg = 0.0;                    ///< TCP yaw about z [deg]; wrapped to -180..180
+  std::uint16_t box_count = 0;             ///< boxes taken: slots first_box..first_box+box_count-1
+  std::uint16_t first_box = 0;             ///< 0-based box slot (index into ResultRecord::boxes)
+  std::uint16_t pick_index = 0;            ///< order of the picks, 1 = pick first
 };
 
 /// One finished detection as the service reports it. Box order is the service's; only the first
@@ -203,6 +243,12 @@ struct ResultRecord {
   double layer_z_m = 0.0;       ///< layer height [m]
   double coverage = 0.0;        ///< 0..1
   double processing_ms = 0.0;   ///< detection wall time [ms] (register 113)
+  bool picking = false;         ///< a gripper is configured: the pick fields below are valid
+  std::uint16_t groups_found = 0;  ///< may exceed groups.size() if the service truncated
+  /// The picks in pick order. Only groups whose boxes all lie in the reported box slots are
+  /// encoded (at most kMaxGroups).
+  std::vector<GroupRecord> groups;
+  std::uint16_t pickable_boxes = 0;  ///< among all boxes found, not only the reported ones
 };
 
 /// Camera fault counters since the daemon started (registers 118..129), uint32 each.
@@ -300,20 +346,28 @@ std::int32_t get_i32(const std::uint16_t* src, WordOrder order);
 // ---- blocks ----
 /// Writes registers 100..129 and 140..155.
 void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& image);
-/// Writes registers 200..530 with `result_id` in 200 and 530 (unused box slots zeroed) and the
-/// result extension 130..139.
+/// Writes registers 200..530 with `result_id` in 200 and 530 (unused box slots zeroed), the
+/// result extension 130..139 and the pick block 540..902 (`result_id` in 540 and 902; the rest
+/// zero without `picking` and for a failed result).
 void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
                    RegisterImage& image);
-/// Clears registers 200..530 and 130..139 (no result yet).
+/// Clears registers 200..902 and 130..139 (no result yet).
 void clear_result(RegisterImage& image);
 
 ControlRecord decode_control(const RegisterImage& image);
 
-/// A result block read back (what a PLC sees), values converted to engineering units.
+/// The result and pick blocks read back (what a PLC sees), values converted to engineering units.
 struct DecodedResult {
   std::uint16_t result_id = 0;
   std::uint16_t result_id_copy = 0;  ///< register 530; differs from result_id on a torn read
+  std::uint16_t pick_result_id = 0;       ///< register 540
+  std::uint16_t pick_result_id_copy = 0;  ///< register 902
   ResultRecord record;               ///< error/error_detail/processing_ms are not in this block
+
+  /// The result id is the same in 200, 530, 540 and 902: the reads belong to one result.
+  [[nodiscard]] bool ids_agree() const {
+    return result_id_copy == result_id && pick_result_id == result_id && pick_result_id_copy == result_id;
+  }
 };
 DecodedResult decode_result(const RegisterImage& image, WordOrder order);
 StatusRecord decode_status(const RegisterImage& image, WordOrder order);
