@@ -36,6 +36,7 @@ struct SimulateArgs {
   bool partial_view = false;
   std::vector<std::string> scenes{"isolated"};
   bool cell = false;
+  bool pallet_stops = false;
   double oversize_max = 0.0;
   std::string corner_radius_mm = "0";
   double bevel_mm = 3.0;
@@ -89,6 +90,7 @@ bool apply_cell_options(const SimulateArgs& a, sim::SetOptions& set) {
   o.corner_radius_min_m = lo_mm / 1000.0;
   o.corner_radius_max_m = hi_mm / 1000.0;
   o.cell = a.cell;
+  o.pallet_stops = a.pallet_stops;
   o.oversize_max = a.oversize_max;
   o.bevel_m = a.bevel_mm / 1000.0;
   o.stepped_max = a.stepped_max;
@@ -245,6 +247,8 @@ void register_simulate(CLI::App& app) {
                   "pallet), slip_sheet, all")
       ->capture_default_str();
   cmd->add_flag("--cell", args->cell, "put every scene in a cell (cabinet, posts, conveyor, second stack; writes STEM.roi.yaml)");
+  cmd->add_flag("--pallet-stops", args->pallet_stops,
+                "posts beside the pallet, higher than the load and inside the region of interest (a gripper keeps clear)");
   cmd->add_option("--oversize-max", args->oversize_max, "boxes built larger than nominal by up to this share (e.g. 0.05)")
       ->capture_default_str()->check(CLI::Range(0.0, 0.1));
   cmd->add_option("--corner-radius", args->corner_radius_mm, "rounded vertical box corners, MM or LO:HI drawn per box [mm]")

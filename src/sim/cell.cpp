@@ -125,6 +125,22 @@ void add_surroundings(Scene& scene, const CellInput& input, Rng& rng) {
   if (rng.chance(0.6)) add_posts(scene, side_of(scene, sides[3]), rng);
 }
 
+void add_pallet_stops(Scene& scene, double load_top_z_m, Rng& rng) {
+  int sides[4] = {0, 1, 2, 3};
+  for (int i = 3; i > 0; --i) std::swap(sides[i], sides[rng.index(static_cast<std::size_t>(i + 1))]);
+  const int count = rng.integer(1, 4);
+  for (int k = 0; k < count; ++k) {
+    const Side side = side_of(scene, sides[k]);
+    const double size_m = rng.uniform(0.06, 0.10);
+    const double gap_m = rng.uniform(0.02, 0.06);
+    const double shift_m = rng.uniform(-0.8, 0.8) * (side.half_along_m - 0.5 * size_m);
+    const double top_m = load_top_z_m + rng.uniform(0.05, 0.4);
+    scene.stops.push_back(scene.boxes.size());
+    scene.boxes.push_back(part(side, side.half_out_m + gap_m + 0.5 * size_m, shift_m, size_m, size_m, 0.0, top_m,
+                               rng.uniform(0.3, 0.6)));
+  }
+}
+
 bool surroundings_hide(const Scene& scene, const std::vector<Eigen::Vector3d>& points_world) {
   const Eigen::Vector3d camera = scene.T_world_camera.translation();
   for (std::size_t idx : scene.surroundings) {

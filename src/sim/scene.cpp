@@ -383,6 +383,10 @@ Expected<Scene> make_scene(const ScenarioOptions& o, const SensorProfile& profil
     const double load_top_m = std::max(scene.top_z_m, base + (drawn_lower + 1) * layer_height);
     add_cell(scene, built.formats[0], load_top_m, std::max(1, drawn_lower), o, seed);
   }
+  if (o.pallet_stops) {
+    Rng stop_rng(seed, 0x5709);
+    detail::add_pallet_stops(scene, std::max(scene.top_z_m, base + (drawn_lower + 1) * layer_height), stop_rng);
+  }
   char text[200];
   std::snprintf(text, sizeof text, "%s %s on %s, %d lower layers, %s%s", to_string(o.pattern).c_str(),
                 formats[0].name.c_str(), to_string(o.pallet).c_str(), lower, load.c_str(),

@@ -110,6 +110,12 @@ struct CellInput {
 /// region of interest; records them in Scene::surroundings (the cabinet first).
 void add_surroundings(Scene& scene, const CellInput& input, Rng& rng);
 
+/// Pallet stops: square posts 60-100 mm thick beside one to four of the pallet's sides, 20-60 mm
+/// off its edge, their tops 0.05-0.4 m above the load (a pallet station's centring guides). They
+/// stand inside the region of interest and higher than the layer: the gripper must keep clear.
+/// Recorded in Scene::stops.
+void add_pallet_stops(Scene& scene, double load_top_z_m, Rng& rng);
+
 /// Active stereo: for each pixel (row-major, depth z [m], 0 = none) the pixel whose surface the
 /// block matching reports there: itself, or the closest pixel within a window whose reach is drawn
 /// per pixel in 1..max_px that lies more than 1 cm nearer. Foreground thus grows by 1-2 pixels

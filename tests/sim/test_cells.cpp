@@ -101,6 +101,46 @@ TEST_CASE("a cell's cabinet stands taller than the load, outside the region of i
   CHECK(roi_yaml(isolated).empty());
 }
 
+TEST_CASE("pallet stops stand beside the pallet, higher than the load, inside the region of interest") {
+  const SensorProfile profile = *profile_by_name("helios2");
+  std::size_t stops = 0;
+  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+    ScenarioOptions o;
+    o.scene = seed % 2 == 0 ? SceneFamily::kCell : SceneFamily::kStepped;
+    o.pallet_stops = true;
+    const Scene scene = *make_scene(o, profile, seed);
+    INFO("seed " << seed);
+    REQUIRE_FALSE(scene.stops.empty());
+    CHECK(scene.stops.size() <= 4);
+    stops += scene.stops.size();
+    for (const std::size_t idx : scene.stops) {
+      const SimBox& b = scene.boxes[idx];
+      CHECK(b.format_index == -1);
+      CHECK(b.top_z_m >= scene.top_z_m + 0.05 - 1e-9);
+      CHECK(b.long_m >= 0.06 - 1e-9);
+      CHECK(b.long_m <= 0.10 + 1e-9);
+      // Outside the pallet by 20-60 mm on one side, and within its length on the other axis.
+      const double out_x = std::abs(b.center.x()) - 0.5 * b.long_m - 0.5 * scene.pallet_long_m;
+      const double out_y = std::abs(b.center.y()) - 0.5 * b.long_m - 0.5 * scene.pallet_short_m;
+      const double gap = std::max(out_x, out_y);
+      CHECK(gap >= 0.02 - 1e-9);
+      CHECK(gap <= 0.06 + 1e-9);
+      CHECK(std::min(out_x, out_y) < 0.0);
+      if (scene.has_roi) {  // its inner face inside the region's footprint
+        CHECK(std::abs(b.center.x()) - 0.5 * b.long_m < scene.roi_max_m.x());
+        CHECK(std::abs(b.center.y()) - 0.5 * b.long_m < scene.roi_max_m.y());
+      }
+    }
+    // Stops are not part of the truth, and leave the cell's other parts as they were.
+    CHECK(make_truth(scene).boxes.size() == scene.top_layer.size());
+    o.pallet_stops = false;
+    const Scene without = *make_scene(o, profile, seed);
+    CHECK(without.boxes.size() + scene.stops.size() == scene.boxes.size());
+    CHECK(without.surroundings == scene.surroundings);
+  }
+  CHECK(stops > 8);  // one to four per scene: more than one on average
+}
+
 TEST_CASE("a stepped pallet keeps one to three boxes on a complete level") {
   const SensorProfile profile = *profile_by_name("o3d303");
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {

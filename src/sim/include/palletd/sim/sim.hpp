@@ -92,6 +92,9 @@ struct ScenarioOptions {
   SceneFamily scene = SceneFamily::kIsolated;
   bool cell = false;             ///< cell surroundings for any family (kCell implies them)
   bool solid_deck = false;       ///< the pallet's deck as one slab (sets made before issue 19)
+  /// Pallet stops: posts beside the pallet, inside the region of interest and higher than the
+  /// load, that a gripper must keep clear of (docs/simulator.md, "Scene families").
+  bool pallet_stops = false;
   int stepped_min = 1, stepped_max = 3;  ///< boxes left on top in a stepped scene
   double cell_tilt_min_deg = 3.0, cell_tilt_max_deg = 20.0;  ///< camera tilt in a cell
   // Camera.
@@ -110,6 +113,7 @@ struct Scene {
   std::vector<std::size_t> top_layer;   ///< indices into boxes of the top layer's boxes
   double top_z_m = 0.0;                 ///< nominal top layer plane height [m] (deck or sheet when no boxes)
   std::vector<std::size_t> surroundings;  ///< indices of the cell's parts; the first is the cabinet
+  std::vector<std::size_t> stops;         ///< indices of pallet stops (ScenarioOptions::pallet_stops)
   SceneFamily family = SceneFamily::kIsolated;
   std::string expect = "boxes";         ///< what a detector must answer: boxes, empty, slip_sheet
   bool has_roi = false;                 ///< a suggested region of interest exists (cell scenes)
