@@ -1,0 +1,73 @@
+// Internals of check_pick(): what a frame shows at the layer's height, on a grid in the layer
+// frame, and where a box's sides step down.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "palletd/core/frame.hpp"
+#include "palletd/core/geometry.hpp"
+
+namespace palletd::pick_check {
+
+/// What the frame shows in one cell of the grid.
+enum class Seen : std::uint8_t {
+  kUnknown = 0,  ///< no point (no depth, hidden, between pixels)
+  kTop = 1,      ///< a point at the layer's height: a box top
+  kLower = 2,    ///< only points clearly below it: a gap, the next level, the floor
+};
+
+/// A grid over part of the layer plane (layer frame, 2 mm cells).
+class Grid {
+ public:
+  Grid(const Eigen::Vector2d& lo_m, const Eigen::Vector2d& hi_m, double cell_m);
+  /// Adds the frame's points: at the layer's height (within `band_m`) a top, more than
+  /// `drop_m` below it a lower cell (a top in the same cell wins).
+  void add_frame(const Frame& frame, const RayTable& rays, const Eigen::Isometry3d& T_layer_camera,
+                 double band_m, double drop_m);
+  [[nodiscard]] Seen at(const Eigen::Vector2d& p_m) const;
+
+ private:
+  Eigen::Vector2d lo_m_;
+  double cell_m_;
+  int nx_ = 0, ny_ = 0;
+  std::vector<Seen> cells_;
+};
+
+/// Share of the rectangle's seen cells (top or lower) that are top, inset by `inset_m`;
+/// `seen_cells` counts the cells that were seen at all.
+double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_cells);
+
+/// One edge measurement: a point on the box's side (box frame), its outward normal (box frame),
+/// and how far outward of the side the step down was found [m].
+struct EdgeSample {
+  Eigen::Vector2d point_box = Eigen::Vector2d::Zero();
+  Eigen::Vector2d normal_box = Eigen::Vector2d::UnitX();
+  int side = 0;  ///< 0 +long, 1 -long, 2 +short, 3 -short
+  double offset_m = 0.0;
+};
+
+/// Where the box's sides step down in the grid, along lines across each side every 10 mm,
+/// looking `reach_m` inward and outward. A side that abuts another box's top shows no step.
+/// Samples come in a fixed order (side, then position), with nullopt where no step was found.
+std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2d& box, double reach_m);
+
+/// The box's move (box frame: shift along its long and short sides [m], turn [rad]) that best
+/// explains how its sides moved (robust least squares; a direction no side constrains stays 0),
+/// and its covariance from the samples' scatter.
+struct Move {
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d information = Eigen::Matrix3d::Identity();  ///< the fit's normal matrix (weights)
+  /// x against its covariance (squared Mahalanobis length): above 16, a move beyond 4 sigma.
+  [[nodiscard]] double significance() const { return x.dot(covariance.ldlt().solve(x)); }
+};
+Move fit_move(const std::vector<EdgeSample>& moves);
+
+/// d(side offset) / d(move) of a sample: along the side's normal, and the turn's lever.
+Eigen::Vector3d move_jacobian(const EdgeSample& sample);
+
+}  // namespace palletd::pick_check

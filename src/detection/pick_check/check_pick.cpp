@@ -1,0 +1,226 @@
+// check_pick(): the picked boxes gone, every other box where it was (pick_check.hpp).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "palletd/detection/pick_check.hpp"
+
+#include "check_internal.hpp"
+
+namespace palletd {
+
+const char* to_string(PickVerdict verdict) {
+  switch (verdict) {
+    case PickVerdict::kPickOk:
+      return "pick_ok";
+    case PickVerdict::kBoxStillThere:
+      return "box_still_there";
+    case PickVerdict::kExtraBoxGone:
+      return "extra_box_gone";
+    case PickVerdict::kNeighbourMoved:
+      return "neighbour_moved";
+    case PickVerdict::kFailed:
+      return "failed";
+  }
+  return "failed";
+}
+
+namespace {
+
+using pick_check::EdgeSample;
+using pick_check::Grid;
+
+/// A layer point counts as a box top within this band of the last layer's plane, as a gap or a
+/// lower level this far below it.
+constexpr double kBand_m = 0.012, kDrop_m = 0.025;
+/// A box's top is looked for inside its outline inset by this much (its edges are rounded and
+/// the moved neighbours' overlap it).
+constexpr double kInset_m = 0.02;
+/// Sides are looked for this far inward and outward of where they were.
+constexpr double kReach_m = 0.06;
+/// A move counts when it lies beyond 3 sigma of its estimate (squared Mahalanobis length).
+constexpr double kSignificance = 9.0;
+/// How well the detection placed a side the frame before did not show (a seam not seen): a
+/// side the pick laid open is measured against it.
+constexpr double kReference_m = 0.004;
+constexpr double kReference_rad = 0.6 * M_PI / 180.0;
+/// Fewer seen cells than this: the box's top was not seen (hidden, no depth), taken as there.
+constexpr int kMinSeenCells = 20;
+
+std::string frame_problem(const Frame& before, const Frame& after) {
+  for (const Frame* f : {&before, &after}) {
+    if (!f->intrinsics.valid()) return "the frame has no valid intrinsics";
+    if (f->depth.size() != f->pixel_count()) return "the frame's depth does not match its size";
+    if (!(f->depth_scale_m > 0.0)) return "the frame's depth_scale must be positive";
+  }
+  if (before.intrinsics.width != after.intrinsics.width ||
+      before.intrinsics.height != after.intrinsics.height || before.intrinsics.fx != after.intrinsics.fx ||
+      before.intrinsics.fy != after.intrinsics.fy)
+    return "the frames come from cameras with other intrinsics";
+  return {};
+}
+
+/// The box moved by `move` (box frame: along its long side, its short side [m], turn [rad]).
+DetectedBox moved_box(const DetectedBox& box, const Eigen::Vector3d& move,
+                      const Eigen::Isometry3d& T_camera_layer,
+                      const std::optional<Eigen::Isometry3d>& T_base_camera) {
+  DetectedBox out = box;
+  const Eigen::Matrix2d R = Eigen::Rotation2Dd(box.in_layer.yaw_rad).toRotationMatrix();
+  out.in_layer.center += R * move.head<2>();
+  out.in_layer.yaw_rad += move.z();
+  const Box2d& b = out.in_layer;
+  out.center = T_camera_layer * Eigen::Vector3d(b.center.x(), b.center.y(), 0.0);
+  out.long_axis = T_camera_layer.linear() * Eigen::Vector3d(std::cos(b.yaw_rad), std::sin(b.yaw_rad), 0.0);
+  if (T_base_camera) {
+    out.base_position = *T_base_camera * out.center;
+    out.base_yaw_deg = axis_yaw_deg(T_base_camera->linear() * out.long_axis);
+  }
+  return out;
+}
+
+/// The box's move between the two grids. Its sides' steps are found in the frame after the pick
+/// around the estimate (three rounds, so a box moved 40 mm is looked for where it went) and
+/// compared with where the frame before showed them; a side only the frame after shows (one the
+/// pick laid open) is compared with the side as detected, less the offset the frame before shows
+/// on average (`bias_m`).
+pick_check::Move box_move(const Grid& before, const Grid& after, const Box2d& box, double bias_m,
+                          int& sides_seen) {
+  const auto was = pick_check::edge_samples(before, box, kReach_m);
+  pick_check::Move move;
+  for (int round = 0; round < 3; ++round) {
+    Box2d estimate = box;
+    const Eigen::Matrix2d R = Eigen::Rotation2Dd(box.yaw_rad).toRotationMatrix();
+    estimate.center += R * move.x.head<2>();
+    estimate.yaw_rad += move.x.z();
+    const auto now = pick_check::edge_samples(after, estimate, kReach_m);
+    std::vector<EdgeSample> moves;
+    int per_side[4] = {0, 0, 0, 0};
+    for (std::size_t k = 0; k < now.size(); ++k) {
+      if (!now[k]) continue;
+      EdgeSample m = *now[k];
+      m.offset_m += pick_check::move_jacobian(m).dot(move.x) - (was[k] ? was[k]->offset_m : bias_m);
+      moves.push_back(m);
+      ++per_side[m.side];
+    }
+    sides_seen = static_cast<int>(
+        std::count_if(std::begin(per_side), std::end(per_side), [](int n) { return n >= 3; }));
+    move = pick_check::fit_move(moves);
+    // A side compared with the detected side shares that side's error, an offset (kReference_m)
+    // and a turn (kReference_rad) common to its samples: both add to the move's uncertainty.
+    Eigen::Vector3d offset_lever[4], turn_lever[4];
+    for (int side = 0; side < 4; ++side) offset_lever[side] = turn_lever[side] = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < now.size(); ++k) {
+      if (!now[k] || was[k]) continue;
+      const EdgeSample& m = *now[k];
+      const double along_m = m.side < 2 ? m.point_box.y() : m.point_box.x();
+      offset_lever[m.side] += pick_check::move_jacobian(m);
+      turn_lever[m.side] += along_m * pick_check::move_jacobian(m);
+    }
+    const Eigen::Matrix3d inverse = move.information.inverse();
+    for (int side = 0; side < 4; ++side) {
+      const Eigen::Vector3d a = inverse * offset_lever[side], b = inverse * turn_lever[side];
+      move.covariance += kReference_m * kReference_m * a * a.transpose() +
+                         kReference_rad * kReference_rad * b * b.transpose();
+    }
+  }
+  return move;
+}
+
+/// The median offset of the sides' steps from the detected sides in the frame the result came
+/// from: how the grid's steps sit against the detection's outlines.
+double edge_bias(const Grid& before, const std::vector<DetectedBox>& boxes) {
+  std::vector<double> offsets;
+  for (const DetectedBox& b : boxes)
+    for (const auto& s : pick_check::edge_samples(before, b.in_layer, kReach_m))
+      if (s) offsets.push_back(s->offset_m);
+  if (offsets.empty()) return 0.0;
+  std::nth_element(offsets.begin(), offsets.begin() + static_cast<std::ptrdiff_t>(offsets.size() / 2),
+                   offsets.end());
+  return offsets[offsets.size() / 2];
+}
+
+PickVerdict verdict_of(const std::vector<BoxCheck>& boxes, std::string& message) {
+  PickVerdict verdict = PickVerdict::kPickOk;
+  auto worse = [&](PickVerdict v, const std::string& what) {
+    if (verdict == PickVerdict::kPickOk || static_cast<int>(v) < static_cast<int>(verdict)) verdict = v;
+    message += (message.empty() ? "" : "; ") + what;
+  };
+  for (const BoxCheck& c : boxes) {
+    const std::string name = "box " + std::to_string(c.box);
+    if (c.picked && c.present) worse(PickVerdict::kBoxStillThere, name + " was picked but still stands");
+    if (!c.picked && !c.present) worse(PickVerdict::kExtraBoxGone, name + " was not picked but is gone");
+    if (c.moved) {
+      char text[120];
+      std::snprintf(text, sizeof text, "%s moved %.1f mm and turned %.1f deg", name.c_str(), c.shift_mm,
+                    c.turn_deg);
+      worse(PickVerdict::kNeighbourMoved, text);
+    }
+  }
+  return verdict;
+}
+
+}  // namespace
+
+PickCheck check_pick(const Frame& before, const Detection& last, const Frame& after,
+                     const std::vector<int>& picked, const PickCheckParams& check) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PickCheck out;
+  auto finish = [&](PickVerdict verdict, std::string message) {
+    out.verdict = verdict;
+    out.message = std::move(message);
+    out.timing_ms["total"] =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  };
+  if (last.status != DetectionStatus::kOk || last.boxes.empty())
+    return finish(PickVerdict::kFailed, "the last result has no boxes to check against");
+  if (std::string problem = frame_problem(before, after); !problem.empty())
+    return finish(PickVerdict::kFailed, problem);
+  for (const int i : picked)
+    if (i < 0 || i >= static_cast<int>(last.boxes.size()))
+      return finish(PickVerdict::kFailed, "picked box " + std::to_string(i) + " is not in the last result (" +
+                                              std::to_string(last.boxes.size()) + " boxes)");
+
+  // Both frames on one grid over the boxes and around them, in the last layer's frame.
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e9), hi = Eigen::Vector2d::Constant(-1e9);
+  for (const DetectedBox& b : last.boxes)
+    for (const Eigen::Vector2d& c : b.in_layer.corners()) {
+      lo = lo.cwiseMin(c);
+      hi = hi.cwiseMax(c);
+    }
+  lo -= Eigen::Vector2d::Constant(0.1);
+  hi += Eigen::Vector2d::Constant(0.1);
+  const Eigen::Isometry3d T_layer_camera = last.layer.T_camera_layer.inverse();
+  const RayTable rays(after.intrinsics);
+  Grid was(lo, hi, 0.002), now(lo, hi, 0.002);
+  was.add_frame(before, rays, T_layer_camera, kBand_m, kDrop_m);
+  now.add_frame(after, rays, T_layer_camera, kBand_m, kDrop_m);
+  const double bias_m = edge_bias(was, last.boxes);
+
+  for (std::size_t i = 0; i < last.boxes.size(); ++i) {
+    const DetectedBox& box = last.boxes[i];
+    BoxCheck c;
+    c.box = static_cast<int>(i);
+    c.picked = std::find(picked.begin(), picked.end(), c.box) != picked.end();
+    int seen_cells = 0;
+    c.seen_share = pick_check::top_share(now, box.in_layer, kInset_m, seen_cells);
+    c.present = seen_cells < kMinSeenCells || c.seen_share >= 0.5;
+    c.now = box;
+    if (c.present && !c.picked) {
+      const pick_check::Move move = box_move(was, now, box.in_layer, bias_m, c.sides_seen);
+      c.shift_mm = 1e3 * move.x.head<2>().norm();
+      c.turn_deg = std::abs(move.x.z()) * 180.0 / M_PI;
+      // Moved: beyond the tolerance, and beyond what the sides' scatter explains.
+      c.moved = (c.shift_mm > check.tolerance_mm || c.turn_deg > check.tolerance_deg) &&
+                move.significance() > kSignificance;
+      if (c.moved) c.now = moved_box(box, move.x, last.layer.T_camera_layer, before.T_base_camera);
+    }
+    out.boxes.push_back(std::move(c));
+  }
+  std::string message;
+  const PickVerdict verdict = verdict_of(out.boxes, message);
+  return finish(verdict, message);
+}
+
+}  // namespace palletd

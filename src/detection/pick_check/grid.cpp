@@ -1,0 +1,148 @@
+// What a frame shows at the layer's height, and where a box's sides step down (check_internal.hpp).
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+#include "check_internal.hpp"
+
+namespace palletd::pick_check {
+
+Grid::Grid(const Eigen::Vector2d& lo_m, const Eigen::Vector2d& hi_m, double cell_m)
+    : lo_m_(lo_m), cell_m_(cell_m) {
+  nx_ = std::max(1, static_cast<int>(std::ceil((hi_m.x() - lo_m.x()) / cell_m)));
+  ny_ = std::max(1, static_cast<int>(std::ceil((hi_m.y() - lo_m.y()) / cell_m)));
+  cells_.assign(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_), Seen::kUnknown);
+}
+
+void Grid::add_frame(const Frame& frame, const RayTable& rays, const Eigen::Isometry3d& T_layer_camera,
+                     double band_m, double drop_m) {
+  const Eigen::Matrix3d R = T_layer_camera.linear();
+  const Eigen::Vector3d t = T_layer_camera.translation();
+  for (std::size_t i = 0; i < frame.pixel_count(); ++i) {
+    if (frame.depth[i] == 0) continue;
+    const double z_m = static_cast<double>(frame.depth[i]) * frame.depth_scale_m;
+    const Eigen::Vector3d q = R * Eigen::Vector3d(rays.ray(i).x() * z_m, rays.ray(i).y() * z_m, z_m) + t;
+    Seen seen = Seen::kUnknown;
+    if (std::abs(q.z()) <= band_m)
+      seen = Seen::kTop;
+    else if (q.z() < -drop_m)
+      seen = Seen::kLower;
+    else
+      continue;
+    const int cx = static_cast<int>(std::floor((q.x() - lo_m_.x()) / cell_m_));
+    const int cy = static_cast<int>(std::floor((q.y() - lo_m_.y()) / cell_m_));
+    if (cx < 0 || cy < 0 || cx >= nx_ || cy >= ny_) continue;
+    Seen& cell =
+        cells_[static_cast<std::size_t>(cy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(cx)];
+    if (cell != Seen::kTop) cell = seen;
+  }
+}
+
+Seen Grid::at(const Eigen::Vector2d& p_m) const {
+  const int cx = static_cast<int>(std::floor((p_m.x() - lo_m_.x()) / cell_m_));
+  const int cy = static_cast<int>(std::floor((p_m.y() - lo_m_.y()) / cell_m_));
+  if (cx < 0 || cy < 0 || cx >= nx_ || cy >= ny_) return Seen::kUnknown;
+  return cells_[static_cast<std::size_t>(cy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(cx)];
+}
+
+double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_cells) {
+  const Eigen::Vector2d u(std::cos(box.yaw_rad), std::sin(box.yaw_rad)), v(-u.y(), u.x());
+  const double a = 0.5 * box.long_m - inset_m, b = 0.5 * box.short_m - inset_m;
+  int top = 0;
+  seen_cells = 0;
+  constexpr double kStep_m = 0.004;
+  for (double x = -a; x <= a; x += kStep_m) {
+    for (double y = -b; y <= b; y += kStep_m) {
+      const Seen s = grid.at(box.center + x * u + y * v);
+      if (s == Seen::kUnknown) continue;
+      ++seen_cells;
+      top += s == Seen::kTop ? 1 : 0;
+    }
+  }
+  return seen_cells > 0 ? static_cast<double>(top) / seen_cells : 0.0;
+}
+
+namespace {
+
+/// Where, along the line p + s n for s in [-reach, reach], the top ends before the first lower
+/// sample (the step down): at the last top sample. Cells between may be unknown, the side's
+/// own shadow where the camera looks past the edge, so the lower sample says only that the step
+/// came before it. nullopt without one.
+std::optional<double> step_along(const Grid& grid, const Eigen::Vector2d& p, const Eigen::Vector2d& n,
+                                 double reach_m) {
+  constexpr double kStep_m = 0.002;
+  std::optional<double> last_top;
+  for (double s = -reach_m; s <= reach_m; s += kStep_m) {
+    const Seen seen = grid.at(p + s * n);
+    if (seen == Seen::kTop)
+      last_top = s;
+    else if (seen == Seen::kLower && last_top)
+      return *last_top + 0.5 * kStep_m;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2d& box, double reach_m) {
+  const Eigen::Matrix2d R = Eigen::Rotation2Dd(box.yaw_rad).toRotationMatrix();
+  const double half[2] = {0.5 * box.long_m, 0.5 * box.short_m};
+  std::vector<std::optional<EdgeSample>> out;
+  constexpr double kSpacing_m = 0.010, kCornerKeepOut_m = 0.015;
+  for (int side = 0; side < 4; ++side) {
+    const int axis = side / 2;
+    const double sign = side % 2 == 0 ? 1.0 : -1.0;
+    Eigen::Vector2d n_box = Eigen::Vector2d::Zero();
+    n_box[axis] = sign;
+    const double along_half = half[1 - axis] - kCornerKeepOut_m;
+    for (double a = -along_half; a <= along_half + 1e-9; a += kSpacing_m) {
+      Eigen::Vector2d p_box = Eigen::Vector2d::Zero();
+      p_box[axis] = sign * half[axis];
+      p_box[1 - axis] = a;
+      const std::optional<double> step = step_along(grid, box.center + R * p_box, R * n_box, reach_m);
+      if (!step) {
+        out.emplace_back(std::nullopt);
+        continue;
+      }
+      out.push_back(EdgeSample{p_box, n_box, side, *step});
+    }
+  }
+  return out;
+}
+
+Eigen::Vector3d move_jacobian(const EdgeSample& m) {
+  return {m.normal_box.x(), m.normal_box.y(),
+          m.normal_box.dot(Eigen::Vector2d(-m.point_box.y(), m.point_box.x()))};
+}
+
+Move fit_move(const std::vector<EdgeSample>& moves) {
+  // n . (t + theta * perp(p)) = offset; a weak prior holds what no side constrains at 0.
+  constexpr double kPrior = 0.5, kHuber_m = 0.003;
+  Move out;
+  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
+  double weighted_sq = 0.0, weights = 0.0;
+  for (int iteration = 0; iteration < 4; ++iteration) {
+    A = kPrior * Eigen::Matrix3d::Identity();
+    A(2, 2) = kPrior * 0.04;  // a turn of 1 rad moves a side 0.2 m away by 0.2 m
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    weighted_sq = weights = 0.0;
+    for (const EdgeSample& m : moves) {
+      const Eigen::Vector3d J = move_jacobian(m);
+      const double residual = J.dot(out.x) - m.offset_m;
+      const double w = std::abs(residual) <= kHuber_m ? 1.0 : kHuber_m / std::abs(residual);
+      A += w * J * J.transpose();
+      b += w * J * m.offset_m;
+      weighted_sq += w * residual * residual;
+      weights += w;
+    }
+    out.x = A.ldlt().solve(b);
+  }
+  // The samples' scatter, never taken below a millimetre (the grid's and the pixels' steps).
+  const double sigma_sq = std::max(1e-6, weighted_sq / std::max(1.0, weights - 3.0));
+  out.covariance = sigma_sq * A.inverse();
+  out.information = A;
+  return out;
+}
+
+}  // namespace palletd::pick_check
