@@ -62,6 +62,15 @@ std::vector<cv::Point> project_ring(const Intrinsics& in, const Eigen::Isometry3
 
 }  // namespace
 
+/// Box outline colour (BGR): magenta without a gripper; with one, green when the robot can take
+/// the box now, orange when a neighbour has to go first, red when something else blocks it.
+cv::Scalar box_colour(const DetectedBox& box) {
+  if (!box.pick) return {255, 0, 255};
+  if (box.pick->pickable) return {0, 200, 0};
+  if (box.pick->blocked_by == PickBlock::kNeighbour) return {0, 165, 255};
+  return {0, 0, 255};
+}
+
 void draw_region_edges(cv::Mat& image, const Frame& frame, const RegionOfInterest& roi, double scale) {
   const bool in_base = roi.frame == RegionOfInterest::Frame::kBase;
   if (in_base && !frame.T_base_camera) return;
@@ -110,8 +119,7 @@ std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection
     }
     cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(0, 0, 0), thick + 2,
                   cv::LINE_AA);
-    cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(255, 0, 255), thick,
-                  cv::LINE_AA);
+    cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, box_colour(box), thick, cv::LINE_AA);
     const cv::Point2d c = project_to_overlay(in, box.center, scale);
     const std::string label = std::to_string(box.pick_index + 1);
     int baseline = 0;
@@ -124,6 +132,9 @@ std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection
   std::string caption = std::string(to_string(detection.status)) + "  boxes: " +
                         std::to_string(detection.boxes.size());
   if (detection.ambiguous) caption += "  AMBIGUOUS";
+  if (std::any_of(detection.boxes.begin(), detection.boxes.end(), [](const DetectedBox& b) { return b.pick.has_value(); }))
+    caption += "  pickable: " + std::to_string(std::count_if(detection.boxes.begin(), detection.boxes.end(),
+                                                              [](const DetectedBox& b) { return b.pick->pickable; }));
   if (detection.status != DetectionStatus::kOk && !detection.message.empty()) caption += "  " + detection.message;
   cv::putText(image, caption, cv::Point(8, 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 4, cv::LINE_AA);
   cv::putText(image, caption, cv::Point(8, 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(255, 255, 255), 1,

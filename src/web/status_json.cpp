@@ -217,6 +217,9 @@ Json result_json(const ResultSnapshot& snapshot, const std::string& stem, const 
                        static_cast<std::size_t>(b.format) < recipe->formats.size();
     r["format_name"] = named ? recipe->formats[static_cast<std::size_t>(b.format)].name : "";
     r["score"] = b.score;
+    // With a gripper: whether the robot can take it now, else why not ("" without a gripper).
+    r["pickable"] = b.pick ? Json(b.pick->pickable) : Json(nullptr);
+    r["blocked_by"] = b.pick ? to_string(b.pick->blocked_by) : "";
     table.push_back(std::move(r));
   }
   j["table"] = std::move(table);

@@ -1,6 +1,7 @@
 // The overlay PNG: the region of interest's edges drawn where the region projects.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include <opencv2/core.hpp>
@@ -63,4 +64,49 @@ TEST_CASE("overlay: the region of interest's edges are drawn where the region pr
   }
   CHECK(changed > 300);
   CHECK(near_edge == changed);
+}
+
+TEST_CASE("overlay: with a gripper, pickable boxes green, boxes waiting for a neighbour orange, blocked red") {
+  auto frame = read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/22_block_600x400_xtion");
+  REQUIRE(frame);
+  Detection detection;
+  detection.status = DetectionStatus::kOk;
+  // A layer frame 1.5 m in front of the camera, facing it; three 0.3 x 0.2 m boxes side by side.
+  detection.layer.T_camera_layer = Eigen::Isometry3d::Identity();
+  detection.layer.T_camera_layer.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  detection.layer.T_camera_layer.translation() = Eigen::Vector3d(0.0, 0.0, 1.5);
+  const PickBlock blocks[3] = {PickBlock::kNone, PickBlock::kNeighbour, PickBlock::kHigherLevel};
+  for (int i = 0; i < 3; ++i) {
+    DetectedBox& b = detection.boxes.emplace_back();
+    b.in_layer.center = Eigen::Vector2d(-0.35 + 0.35 * i, 0.0);
+    b.in_layer.long_m = 0.3;
+    b.in_layer.short_m = 0.2;
+    b.center = detection.layer.T_camera_layer * Eigen::Vector3d(b.in_layer.center.x(), 0.0, 0.0);
+    b.pick_index = i;
+    b.pick = BoxPick{i == 0, blocks[i], TcpPose{}};
+  }
+  const cv::Mat image = cv::imdecode(render_overlay_png(*frame, detection), cv::IMREAD_COLOR);
+  REQUIRE_FALSE(image.empty());
+  // Each box's left edge, in the middle of its height: the outline's colour (BGR).
+  const Intrinsics& k = frame->intrinsics;
+  auto colour_at_left_edge = [&](int i) {
+    const double x_m = -0.35 + 0.35 * i - 0.15;
+    const int u = static_cast<int>(std::lround(k.fx * x_m / 1.5 + k.cx));
+    const int v = static_cast<int>(std::lround(k.cy));
+    cv::Vec3b best(0, 0, 0);
+    for (int du = -2; du <= 2; ++du) {  // the 2 px line may sit a pixel off the projection
+      const cv::Vec3b c = image.at<cv::Vec3b>(v, u + du);
+      if (c[0] + c[1] + c[2] > best[0] + best[1] + best[2]) best = c;
+    }
+    return best;
+  };
+  const cv::Vec3b pickable = colour_at_left_edge(0), waiting = colour_at_left_edge(1), blocked = colour_at_left_edge(2);
+  CAPTURE(pickable, waiting, blocked);
+  CHECK(pickable[1] > 150);  // green
+  CHECK(pickable[2] < 80);
+  CHECK(waiting[2] > 200);   // orange: red and some green, no blue
+  CHECK(waiting[1] > 100);
+  CHECK(waiting[0] < 80);
+  CHECK(blocked[2] > 200);   // red
+  CHECK(blocked[1] < 80);
 }

@@ -251,6 +251,24 @@ TEST_CASE("without camera_to_base the box table is in the camera frame and says 
   REQUIRE(!j["table"].empty());
   CHECK(j["table"][0]["frame"] == "camera");
   CHECK(j["table"][0]["z_mm"].get<double>() == Approx(s->detection.boxes[0].center.z() * 1000.0));
+  CHECK(j["table"][0]["pickable"].is_null());  // no gripper
+  CHECK(j["table"][0]["blocked_by"] == "");
+}
+
+TEST_CASE("with a gripper the box table says which boxes the robot can take now, and why not") {
+  testing::WebFixture& f = shared_fixture();
+  auto s = std::make_shared<ResultSnapshot>(f.first());
+  REQUIRE(s->detection.boxes.size() >= 2);
+  s->detection.boxes[0].pick = BoxPick{true, PickBlock::kNone, TcpPose{}};
+  s->detection.boxes[1].pick = BoxPick{false, PickBlock::kHigherLevel, TcpPose{}};
+  testing::WebFixture local;
+  local.set_latest(s);
+  Running run(local, test_options());
+  const Json j = get_json(run.client, "/api/result");
+  CHECK(j["table"][0]["pickable"] == true);
+  CHECK(j["table"][0]["blocked_by"] == "");
+  CHECK(j["table"][1]["pickable"] == false);
+  CHECK(j["table"][1]["blocked_by"] == "higher_level");
 }
 
 TEST_CASE("/api/overlay.png is the overlay of the latest snapshot, rendered once") {
