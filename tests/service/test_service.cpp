@@ -108,6 +108,46 @@ TEST_CASE("a trigger over Modbus is answered with the detection of the replayed 
   service.stop();
 }
 
+TEST_CASE("with a gripper the pick block over Modbus holds the detection's groups and box statuses") {
+  const auto names = bundled_stems(1);
+  TempFrames frames(names);
+  palletd::Config config = demo_config(frames.dir);
+  const palletd::BoxFormat& format = config.formats[static_cast<std::size_t>(config.recipes.front().formats.front())];
+  palletd::GripperParams gripper;
+  gripper.footprint_mm = Eigen::Vector2d(1e3 * format.long_m, 1e3 * format.short_m);
+  config.detection.gripper = gripper;
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, config.modbus.unit_id);
+  REQUIRE(plc.connect().ok());
+  auto result = plc.trigger(static_cast<std::uint16_t>(config.recipes.front().number), 77, 10s);
+  REQUIRE(result.ok());
+  REQUIRE(result->result.ids_agree());  // 200 = 530 = 540 = 902
+  const auto& rec = result->result.record;
+  const auto snapshot = service.latest();
+  REQUIRE(snapshot != nullptr);
+  const palletd::Detection& d = snapshot->detection;
+  REQUIRE(d.status == palletd::DetectionStatus::kOk);
+  CHECK(rec.picking);
+  REQUIRE(rec.groups.size() == d.groups.size());
+  CHECK(rec.groups_found == d.groups.size());
+  for (std::size_t g = 0; g < d.groups.size(); ++g) {
+    CHECK(rec.groups[g].x_m == Approx(d.groups[g].tcp.position_m.x()).margin(1e-4));
+    CHECK(rec.groups[g].first_box == d.groups[g].boxes.front());
+    CHECK(rec.groups[g].box_count == d.groups[g].boxes.size());
+    CHECK(rec.groups[g].pick_index == d.groups[g].pick_index + 1);
+  }
+  int pickable = 0;
+  for (std::size_t i = 0; i < rec.boxes.size(); ++i) {
+    REQUIRE(d.boxes[i].pick);
+    pickable += d.boxes[i].pick->pickable ? 1 : 0;
+    CHECK((rec.boxes[i].pick_status == palletd::modbus::PickStatus::kPickable) == d.boxes[i].pick->pickable);
+  }
+  CHECK(rec.pickable_boxes == pickable);
+  CHECK(pickable >= 1);
+  service.stop();
+}
+
 TEST_CASE("an unknown recipe fails the trigger with error code 5 and its number as detail") {
   TempFrames frames(bundled_stems(1));
   palletd::Service service(demo_config(frames.dir));

@@ -190,7 +190,7 @@ enum class ResultStatus : std::uint16_t { kOk = 0, kNoBoxes = 1, kFailed = 2 };
 /// Pick status of a box slot (registers 870..901): pickable now, or what blocks it.
 enum class PickStatus : std::uint16_t {
   kPickable = 0,
-  kRoi = 1,          ///< the gripper would reach out of the region of interest
+  kRoi = 1,          ///< the gripper would reach out of the region of interest or the view
   kHigherLevel = 2,  ///< something higher than the layer stands under the gripper
   kYawLimits = 3,    ///< neither of the box's yaws is within the robot's limits
   kNeighbour = 4,    ///< a neighbour has to go first
