@@ -63,7 +63,8 @@ std::vector<Eigen::Vector2d> obstacles_above_layer(const Frame& frame, const Ray
     if (up.dot(p) + up_offset > min_height_m && between_walls(p, roi, T_roi_camera)) above[i] = 1;
   }
   constexpr double kCell_m = 0.005;
-  std::vector<std::int64_t> cells;
+  // A cell's key: its two 32-bit signed indices side by side in one unsigned word.
+  std::vector<std::uint64_t> cells;
   for (int v = 1; v + 1 < h; ++v) {
     for (int u = 1; u + 1 < w; ++u) {
       const std::size_t i =
@@ -75,18 +76,18 @@ std::vector<Eigen::Vector2d> obstacles_above_layer(const Frame& frame, const Ray
           neighbours += above[static_cast<std::size_t>(static_cast<long>(i) + dv * w + du)];
       if (neighbours - 1 < 3) continue;
       const Eigen::Vector3d q = T_layer_camera * point_of(i);
-      const auto cx = static_cast<std::int64_t>(std::floor(q.x() / kCell_m));
-      const auto cy = static_cast<std::int64_t>(std::floor(q.y() / kCell_m));
-      cells.push_back((cx << 32) ^ (cy & 0xffffffffLL));
+      const auto cx = static_cast<std::int32_t>(std::floor(q.x() / kCell_m));
+      const auto cy = static_cast<std::int32_t>(std::floor(q.y() / kCell_m));
+      cells.push_back((std::uint64_t{static_cast<std::uint32_t>(cx)} << 32) | static_cast<std::uint32_t>(cy));
     }
   }
   std::sort(cells.begin(), cells.end());
   cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
   std::vector<Eigen::Vector2d> out;
   out.reserve(cells.size());
-  for (const std::int64_t key : cells) {
-    const auto cx = static_cast<double>(key >> 32);
-    const auto cy = static_cast<double>(static_cast<std::int32_t>(key & 0xffffffffLL));
+  for (const std::uint64_t key : cells) {
+    const auto cx = static_cast<double>(static_cast<std::int32_t>(static_cast<std::uint32_t>(key >> 32)));
+    const auto cy = static_cast<double>(static_cast<std::int32_t>(static_cast<std::uint32_t>(key & 0xffffffffu)));
     out.emplace_back((cx + 0.5) * kCell_m, (cy + 0.5) * kCell_m);
   }
   return out;
