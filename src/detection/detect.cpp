@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "frame_problem.hpp"
 #include "level_checks.hpp"
 #include "palletd/detection/picking.hpp"
 #include "poses.hpp"
@@ -48,20 +49,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-// A frame detect() can work on, or the reason it cannot.
-std::string frame_problem(const Frame& frame) {
-  const Intrinsics& in = frame.intrinsics;
-  if (in.width <= 0 || in.height <= 0) return "frame has no size";
-  if (!(in.fx > 0.0) || !(in.fy > 0.0) || !std::isfinite(in.fx) || !std::isfinite(in.fy))
-    return "focal length must be positive";
-  if (!std::isfinite(in.cx) || !std::isfinite(in.cy)) return "principal point is not finite";
-  if (frame.depth.size() != frame.pixel_count())
-    return "depth has " + std::to_string(frame.depth.size()) + " pixels, expected " +
-           std::to_string(frame.pixel_count());
-  if (!(frame.depth_scale_m > 0.0) || !std::isfinite(frame.depth_scale_m)) return "depth_scale must be positive";
-  return {};
-}
 
 /// The most boxes one layer may hold: a 1.2 m x 1.2 m layer of 50 mm cartons. The stages after
 /// the budgeted search (ranking, completion, the joint refinement) grow with the box count; a

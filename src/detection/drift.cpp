@@ -11,6 +11,7 @@
 #include <pcl/search/kdtree.h>
 
 #include "drift_internal.hpp"
+#include "frame_problem.hpp"
 
 namespace palletd {
 
@@ -156,12 +157,6 @@ SourceCloud::Ptr fixed_points(const CameraCloud& cloud, const DriftReference::Da
     out->push_back(q);
   }
   return out;
-}
-
-std::string frame_problem(const Frame& frame) {
-  if (!frame.intrinsics.valid()) return "the frame has no valid intrinsics";
-  if (frame.depth.size() != frame.pixel_count()) return "the frame's depth image does not match its size";
-  return {};
 }
 
 DriftEstimate not_measured(std::string message) {

@@ -58,29 +58,34 @@ void assign_pick_order(std::vector<DetectedBox>& boxes, PickOrder order) {
 
 }  // namespace
 
+void place_from_layer(DetectedBox& box, const Eigen::Isometry3d& T_camera_layer,
+                      const std::optional<Eigen::Isometry3d>& T_base_camera) {
+  const Box2d& b = box.in_layer;
+  const Eigen::Matrix3d R_camera_layer = T_camera_layer.linear();
+  box.center = T_camera_layer * Eigen::Vector3d(b.center.x(), b.center.y(), 0.0);
+  box.long_axis = R_camera_layer * Eigen::Vector3d(std::cos(b.yaw_rad), std::sin(b.yaw_rad), 0.0);
+  box.normal = R_camera_layer * Eigen::Vector3d::UnitZ();
+  if (T_base_camera) {
+    box.base_position = *T_base_camera * box.center;
+    box.base_yaw_deg = axis_yaw_deg(T_base_camera->linear() * box.long_axis);
+  }
+}
+
 std::vector<DetectedBox> to_detected_boxes(const std::vector<LayoutBox>& boxes,
                                            const Eigen::Isometry3d& T_camera_layer,
                                            const std::optional<Eigen::Isometry3d>& T_base_camera,
                                            PickOrder order) {
   std::vector<DetectedBox> out;
   out.reserve(boxes.size());
-  const Eigen::Matrix3d R_camera_layer = T_camera_layer.linear();
-  for (std::size_t i = 0; i < boxes.size(); ++i) {
-    const LayoutBox& b = boxes[i];
+  for (const LayoutBox& b : boxes) {
     DetectedBox d;
     d.in_layer = b;
-    d.center = T_camera_layer * Eigen::Vector3d(b.center.x(), b.center.y(), 0.0);
-    d.long_axis = R_camera_layer * Eigen::Vector3d(std::cos(b.yaw_rad), std::sin(b.yaw_rad), 0.0);
-    d.normal = R_camera_layer * Eigen::Vector3d::UnitZ();
     d.long_m = b.long_m;
     d.short_m = b.short_m;
     d.format = b.format;
     d.score = b.score;
     d.partly_unseen = b.partly_unseen;
-    if (T_base_camera) {
-      d.base_position = *T_base_camera * d.center;
-      d.base_yaw_deg = axis_yaw_deg(T_base_camera->linear() * d.long_axis);
-    }
+    place_from_layer(d, T_camera_layer, T_base_camera);
     out.push_back(std::move(d));
   }
   assign_pick_order(out, order);

@@ -19,4 +19,9 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<LayoutBox>& boxes,
                                            const std::optional<Eigen::Isometry3d>& T_base_camera,
                                            PickOrder order);
 
+/// Sets the box's camera-frame pose (center, long_axis, normal) and, with T_base_camera, its
+/// base-frame one from its layer-frame box `in_layer`.
+void place_from_layer(DetectedBox& box, const Eigen::Isometry3d& T_camera_layer,
+                      const std::optional<Eigen::Isometry3d>& T_base_camera);
+
 }  // namespace palletd

@@ -6,6 +6,8 @@
 
 #include "palletd/detection/pick_check.hpp"
 
+#include "../frame_problem.hpp"
+#include "../poses.hpp"
 #include "check_internal.hpp"
 
 namespace palletd {
@@ -48,12 +50,9 @@ constexpr double kReference_rad = 0.6 * M_PI / 180.0;
 /// Fewer seen cells than this: the box's top was not seen (hidden, no depth), taken as there.
 constexpr int kMinSeenCells = 20;
 
-std::string frame_problem(const Frame& before, const Frame& after) {
-  for (const Frame* f : {&before, &after}) {
-    if (!f->intrinsics.valid()) return "the frame has no valid intrinsics";
-    if (f->depth.size() != f->pixel_count()) return "the frame's depth does not match its size";
-    if (!(f->depth_scale_m > 0.0)) return "the frame's depth_scale must be positive";
-  }
+std::string frames_problem(const Frame& before, const Frame& after) {
+  for (const Frame* f : {&before, &after})
+    if (std::string problem = frame_problem(*f); !problem.empty()) return problem;
   if (before.intrinsics.width != after.intrinsics.width ||
       before.intrinsics.height != after.intrinsics.height || before.intrinsics.fx != after.intrinsics.fx ||
       before.intrinsics.fy != after.intrinsics.fy)
@@ -66,16 +65,9 @@ DetectedBox moved_box(const DetectedBox& box, const Eigen::Vector3d& move,
                       const Eigen::Isometry3d& T_camera_layer,
                       const std::optional<Eigen::Isometry3d>& T_base_camera) {
   DetectedBox out = box;
-  const Eigen::Matrix2d R = Eigen::Rotation2Dd(box.in_layer.yaw_rad).toRotationMatrix();
-  out.in_layer.center += R * move.head<2>();
+  out.in_layer.center += Eigen::Rotation2Dd(box.in_layer.yaw_rad) * move.head<2>();
   out.in_layer.yaw_rad += move.z();
-  const Box2d& b = out.in_layer;
-  out.center = T_camera_layer * Eigen::Vector3d(b.center.x(), b.center.y(), 0.0);
-  out.long_axis = T_camera_layer.linear() * Eigen::Vector3d(std::cos(b.yaw_rad), std::sin(b.yaw_rad), 0.0);
-  if (T_base_camera) {
-    out.base_position = *T_base_camera * out.center;
-    out.base_yaw_deg = axis_yaw_deg(T_base_camera->linear() * out.long_axis);
-  }
+  place_from_layer(out, T_camera_layer, T_base_camera);
   return out;
 }
 
@@ -87,10 +79,10 @@ DetectedBox moved_box(const DetectedBox& box, const Eigen::Vector3d& move,
 pick_check::Move box_move(const Grid& before, const Grid& after, const Box2d& box, double bias_m,
                           int& sides_seen) {
   const auto was = pick_check::edge_samples(before, box, kReach_m);
+  const Eigen::Rotation2Dd R(box.yaw_rad);
   pick_check::Move move;
   for (int round = 0; round < 3; ++round) {
     Box2d estimate = box;
-    const Eigen::Matrix2d R = Eigen::Rotation2Dd(box.yaw_rad).toRotationMatrix();
     estimate.center += R * move.x.head<2>();
     estimate.yaw_rad += move.x.z();
     const auto now = pick_check::edge_samples(after, estimate, kReach_m);
@@ -175,7 +167,7 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   };
   if (last.status != DetectionStatus::kOk || last.boxes.empty())
     return finish(PickVerdict::kFailed, "the last result has no boxes to check against");
-  if (std::string problem = frame_problem(before, after); !problem.empty())
+  if (std::string problem = frames_problem(before, after); !problem.empty())
     return finish(PickVerdict::kFailed, problem);
   for (const int i : picked)
     if (i < 0 || i >= static_cast<int>(last.boxes.size()))
