@@ -19,7 +19,7 @@ const std::vector<std::string>& top_level_keys() {
   static const std::vector<std::string> keys = {"camera",    "camera_to_base", "formats",
                                                 "recipes",   "pallet",         "detection",      "modbus",
                                                 "pipeline",  "logging",        "recording", "web", "metrics",
-                                                "health",    "gripper",        "shadow_config"};
+                                                "health",    "gripper",        "check",          "shadow_config"};
   return keys;
 }
 
@@ -61,6 +61,7 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (const YAML::Node n = root["metrics"]) read_section(ctx, n, "metrics", metrics_table(), config.metrics);
   if (const YAML::Node n = root["health"]) read_section(ctx, n, "health", health_table(), config.health);
   if (const YAML::Node n = root["gripper"]) config.detection.gripper = read_gripper(ctx, n, "gripper");
+  if (const YAML::Node n = root["check"]) read_section(ctx, n, "check", check_table(), config.check);
   config.detection.noise_model = config.health.noise_model;  // detect() measures against it
   if (const YAML::Node n = root["shadow_config"]) read_shadow_config(ctx, n, config);
 
@@ -170,6 +171,7 @@ std::vector<std::string> config_differences(const Config& a, const Config& b) {
   compare_section(a.metrics, b.metrics, "metrics", metrics_table(), diffs);
   compare_section(a.health, b.health, "health", health_table(), diffs);
   if (!(a.detection.gripper == b.detection.gripper)) diffs.emplace_back("gripper");
+  compare_section(a.check, b.check, "check", check_table(), diffs);
   if (a.shadow_config != b.shadow_config) diffs.emplace_back("shadow_config");
   return diffs;
 }
@@ -190,6 +192,7 @@ std::vector<std::string> config_key_paths() {
   list_section("metrics", metrics_table(), keys);
   list_section("health", health_table(), keys);
   keys.emplace_back("gripper");
+  list_section("check", check_table(), keys);
   keys.emplace_back("shadow_config");
   return keys;
 }

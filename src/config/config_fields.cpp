@@ -179,4 +179,12 @@ const Table<HealthConfig>& health_table() {
   return t;
 }
 
+const Table<PickCheckParams>& check_table() {
+  static const Table<PickCheckParams> t = {
+      number("tolerance_mm", &PickCheckParams::tolerance_mm, Range::positive(1000.0)),
+      number("tolerance_deg", &PickCheckParams::tolerance_deg, Range::positive(90.0)),
+  };
+  return t;
+}
+
 }  // namespace palletd::config_detail

@@ -24,6 +24,7 @@ const Table<PipelineConfig>& pipeline_table();
 const Table<LoggingConfig>& logging_table();
 const Table<RecordingConfig>& recording_table();
 const Table<HealthConfig>& health_table();
+const Table<PickCheckParams>& check_table();
 
 // Sections with their own shape (config_sections.cpp).
 std::optional<Eigen::Isometry3d> read_camera_to_base(const Context& ctx, const YAML::Node& node,

@@ -81,9 +81,26 @@ Expected<PlcClient::TriggerResult> PlcClient::trigger(std::uint16_t recipe, std:
   const auto deadline = Clock::now() + timeout;
   if (Status s = wait_status(kStReady | kStBusy, kStReady, deadline, "Ready and not Busy"); !s)
     return Error{s.error()};
-  const std::uint16_t trigger[3] = {kCtlTrigger, recipe, request_id};
+  const std::uint16_t latched[2] = {recipe, request_id};
+  if (Status s = write(kRegRecipe, latched, 2); !s) return Error{s.error()};
+  return run_handshake(kCtlTrigger, request_id, deadline);
+}
+
+Expected<PlcClient::TriggerResult> PlcClient::pick_check(std::uint16_t picked_box, std::uint16_t picked_group,
+                                                         std::uint16_t request_id, std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  if (Status s = wait_status(kStReady | kStBusy, kStReady, deadline, "Ready and not Busy"); !s)
+    return Error{s.error()};
+  const std::uint16_t picked[2] = {picked_box, picked_group};
+  if (Status s = write(kRegPickedBox, picked, 2); !s) return Error{s.error()};
+  if (Status s = write(kRegRequestId, &request_id, 1); !s) return Error{s.error()};
+  return run_handshake(kCtlPickCheck, request_id, deadline);
+}
+
+Expected<PlcClient::TriggerResult> PlcClient::run_handshake(std::uint16_t control_bit, std::uint16_t request_id,
+                                                            Clock::time_point deadline) {
   const auto t0 = Clock::now();
-  if (Status s = write(kRegControlWord, trigger, 3); !s) return Error{s.error()};
+  if (Status s = write(kRegControlWord, &control_bit, 1); !s) return Error{s.error()};
   if (Status s = wait_status(kStTriggerAck, kStTriggerAck, deadline, "TriggerAck"); !s)
     return Error{s.error()};
   const std::uint16_t zero = 0;
@@ -99,6 +116,7 @@ Expected<PlcClient::TriggerResult> PlcClient::trigger(std::uint16_t recipe, std:
     out.word_order = (image[kRegFormatFlags] & kFmtLowWordFirst) != 0
                          ? WordOrder::kLowWordFirst
                          : WordOrder::kHighWordFirst;
+    if (Status s = read(kResultExtStart, kResultExtCount, image); !s) return Error{s.error()};
     if (Status s = read(kResultStart, kResultCount, image); !s) return Error{s.error()};
     if (Status s = read(kPickStart, kPickCount, image); !s) return Error{s.error()};
     out.result = decode_result(image, out.word_order);

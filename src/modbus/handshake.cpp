@@ -99,26 +99,9 @@ std::vector<HandshakeEvent> Handshake::on_control_written(const std::uint16_t* c
     missed_trigger_ = false;
     overrun_ = false;
   }
-  if (rising(before, after, kCtlTrigger)) {
-    const bool ready = service_.ready && !plc_heartbeat_lost_;
-    if (busy_ || !ready) {
-      missed_trigger_ = true;
-      if (missed_count_ < 0xFFFF) ++missed_count_;
-      ++missed_total_;
-    } else {
-      busy_ = true;
-      trigger_ack_ = true;
-      result_ready_ = false;
-      active_recipe_ = control[kRegRecipe];
-      last_request_id_ = control[kRegRequestId];
-      trigger_time_ = now;
-      ++trigger_seq_;
-      events.push_back(HandshakeEvent{EventKind::kTrigger, active_recipe_, last_request_id_,
-                                      trigger_seq_, now});
-    }
-  } else if ((after & kCtlTrigger) == 0) {
-    trigger_ack_ = false;
-  }
+  if (rising(before, after, kCtlTrigger)) start_request(EventKind::kTrigger, control, now, events);
+  if (rising(before, after, kCtlPickCheck)) start_request(EventKind::kPickCheck, control, now, events);
+  if ((after & (kCtlTrigger | kCtlPickCheck)) == 0) trigger_ack_ = false;
   if (rising(before, after, kCtlSaveSnapshot)) {
     events.push_back(HandshakeEvent{EventKind::kSaveSnapshot, control[kRegRecipe],
                                     control[kRegRequestId], trigger_seq_, now});
@@ -129,6 +112,30 @@ std::vector<HandshakeEvent> Handshake::on_control_written(const std::uint16_t* c
   }
   refresh();
   return events;
+}
+
+void Handshake::start_request(EventKind kind, const std::uint16_t* control, Clock::time_point now,
+                              std::vector<HandshakeEvent>& events) {
+  const bool ready = service_.ready && !plc_heartbeat_lost_;
+  if (busy_ || !ready) {
+    missed_trigger_ = true;
+    if (missed_count_ < 0xFFFF) ++missed_count_;
+    ++missed_total_;
+    return;
+  }
+  busy_ = true;
+  trigger_ack_ = true;
+  result_ready_ = false;
+  if (kind == EventKind::kTrigger) active_recipe_ = control[kRegRecipe];
+  last_request_id_ = control[kRegRequestId];
+  trigger_time_ = now;
+  ++trigger_seq_;
+  HandshakeEvent event{kind, active_recipe_, last_request_id_, trigger_seq_, now};
+  if (kind == EventKind::kPickCheck) {
+    event.picked_box = control[kRegPickedBox];
+    event.picked_group = control[kRegPickedGroup];
+  }
+  events.push_back(event);
 }
 
 void Handshake::on_result(const ResultRecord& result, Clock::time_point now) {

@@ -200,6 +200,14 @@ void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrde
     r[kRegLayersRemaining] = static_cast<std::uint16_t>(std::clamp(*result.layers_remaining, 0, 65535));
   }
   r[kRegLayerInfoFlags] = layer_info;
+  if (result.check) {
+    r[kRegCheckResult] = static_cast<std::uint16_t>(result.check->result);
+    r[kRegCheckBoxesGone] = result.check->boxes_gone;
+    r[kRegCheckBoxesMoved] = result.check->boxes_moved;
+    r[kRegCheckMovedSlot] = result.check->moved_slot;
+    r[kRegCheckLargestMove] = static_cast<std::uint16_t>(
+        std::clamp<std::int32_t>(metres_to_tenth_mm(result.check->largest_move_m), 0, 65535));
+  }
   put_i32(r + kRegLayerZ, metres_to_tenth_mm(result.layer_z_m), order);
   r[kRegCoverage] = unit_to_permille(result.coverage);
   for (std::uint16_t i = 0; i < reported; ++i) {
@@ -273,6 +281,15 @@ DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
   if ((r[kRegLayerInfoFlags] & kLayerHeightKnown) != 0)
     rec.height_above_pallet_m = tenth_mm_to_metres(get_i32(r + kRegHeightAbovePallet, order));
   if ((r[kRegLayerInfoFlags] & kLayersRemainingKnown) != 0) rec.layers_remaining = r[kRegLayersRemaining];
+  if (r[kRegCheckResult] != 0) {
+    CheckRecord c;
+    c.result = static_cast<CheckResult>(r[kRegCheckResult]);
+    c.boxes_gone = r[kRegCheckBoxesGone];
+    c.boxes_moved = r[kRegCheckBoxesMoved];
+    c.moved_slot = r[kRegCheckMovedSlot];
+    c.largest_move_m = r[kRegCheckLargestMove] * 1e-4;
+    rec.check = c;
+  }
   rec.layer_z_m = tenth_mm_to_metres(get_i32(r + kRegLayerZ, order));
   rec.coverage = r[kRegCoverage] * 1e-3;
   const std::uint16_t reported = std::min<std::uint16_t>(r[kRegBoxesReported], kMaxBoxes);

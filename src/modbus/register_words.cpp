@@ -33,6 +33,18 @@ const char* detection_failure_text(std::uint16_t detail) {
   return "reason unknown";
 }
 
+const char* pick_check_failure_text(std::uint16_t detail) {
+  switch (static_cast<modbus::PickCheckFailure>(detail)) {
+    case modbus::PickCheckFailure::kNoLayout:
+      return "the result in the block has no boxes to check against (trigger a detection)";
+    case modbus::PickCheckFailure::kNothingPicked:
+      return "registers 4 and 5 name no box or group of the result in the block";
+    case modbus::PickCheckFailure::kBadFrame:
+      return "the frame after the pick cannot be compared with the last one";
+  }
+  return "reason unknown";
+}
+
 }  // namespace
 
 const char* error_name(ErrorCode code) {
@@ -53,6 +65,8 @@ const char* error_name(ErrorCode code) {
       return "PLC heartbeat lost";
     case ErrorCode::kInternal:
       return "internal error";
+    case ErrorCode::kPickCheckFailed:
+      return "pick check failed";
   }
   return "unknown error code";
 }
@@ -75,6 +89,8 @@ std::string error_sentence(ErrorCode code, std::uint16_t detail) {
       return "The PLC heartbeat (register 3) stopped changing.";
     case ErrorCode::kInternal:
       return "Internal error: see the log (journalctl -u palletd).";
+    case ErrorCode::kPickCheckFailed:
+      return std::string("The pick check could not run: ") + pick_check_failure_text(detail) + ".";
   }
   return "Unknown error code " + std::to_string(static_cast<unsigned>(code)) + ".";
 }
@@ -89,7 +105,7 @@ const std::vector<std::string>& status_bit_names() {
 
 const std::vector<std::string>& control_bit_names() {
   static const std::vector<std::string> names{"Trigger", "ResultAck", "ClearError", "SaveSnapshot",
-                                                   "SetDriftReference"};
+                                                   "SetDriftReference", "PickCheck"};
   return names;
 }
 

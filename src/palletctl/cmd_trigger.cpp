@@ -25,7 +25,20 @@ struct TriggerArgs {
   int count = 1;
   int timeout_ms = 10000;
   bool quiet = false;  ///< no box tables, the summary only
+  int picked_box = 0;    ///< --check-box: PickCheck with this box slot + 1 instead of a Trigger
+  int picked_group = 0;  ///< --check-group: ... with this group slot + 1
 };
+
+const char* check_word(modbus::CheckResult c) {
+  switch (c) {
+    case modbus::CheckResult::kNone: return "none";
+    case modbus::CheckResult::kPickOk: return "pick_ok";
+    case modbus::CheckResult::kBoxStillThere: return "box_still_there";
+    case modbus::CheckResult::kExtraBoxGone: return "extra_box_gone";
+    case modbus::CheckResult::kNeighbourMoved: return "neighbour_moved";
+  }
+  return "?";
+}
 
 const char* status_word(modbus::ResultStatus s) {
   switch (s) {
@@ -52,6 +65,10 @@ void print_result(const modbus::PlcClient::TriggerResult& r) {
   if (rec.layer_clipped) flags += " layer-clipped-by-image-border";
   if (rec.outline_unobserved) flags += " outline-partly-unobserved";
   if (!flags.empty()) std::printf("  flags:%s\n", flags.c_str());
+  if (rec.check)
+    std::printf("  pick check: %s, %u box(es) gone, %u moved (most: slot %u by %.1f mm)\n",
+                check_word(rec.check->result), rec.check->boxes_gone, rec.check->boxes_moved,
+                rec.check->moved_slot, rec.check->largest_move_m * 1000.0);
   if (rec.boxes.empty()) return;
   std::printf("  %4s %10s %10s %10s %9s %6s %6s\n", "pick", "x[mm]", "y[mm]", "z[mm]", "yaw[deg]", "format", "score");
   for (const auto& b : rec.boxes) {
@@ -70,7 +87,11 @@ int run_trigger(const TriggerArgs& a) {
   std::vector<double> handshake_ms;
   for (int i = 0; i < a.count; ++i) {
     const auto request = static_cast<std::uint16_t>((a.request_id + i) & 0xFFFF);
-    auto result = plc.trigger(static_cast<std::uint16_t>(a.recipe), request, std::chrono::milliseconds(a.timeout_ms));
+    const std::chrono::milliseconds timeout(a.timeout_ms);
+    auto result = a.picked_box > 0 || a.picked_group > 0
+                      ? plc.pick_check(static_cast<std::uint16_t>(a.picked_box),
+                                       static_cast<std::uint16_t>(a.picked_group), request, timeout)
+                      : plc.trigger(static_cast<std::uint16_t>(a.recipe), request, timeout);
     if (!result) {
       spdlog::error("trigger {}: {}", request, result.error());
       ++failures;
@@ -103,6 +124,12 @@ void register_trigger(CLI::App& app) {
   cmd->add_option("--request-id", args->request_id, "first request id")->capture_default_str()->check(CLI::Range(0, 65535));
   cmd->add_option("-n,--count", args->count, "number of triggers")->capture_default_str()->check(CLI::Range(1, 1000000));
   cmd->add_option("--timeout-ms", args->timeout_ms, "timeout per handshake [ms]")->capture_default_str();
+  cmd->add_option("--check-box", args->picked_box,
+                  "check a pick instead (control bit 5): the box slot + 1 the robot took (register 4)")
+      ->check(CLI::Range(1, 32));
+  cmd->add_option("--check-group", args->picked_group,
+                  "check a pick instead: the group slot + 1 the robot took (register 5)")
+      ->check(CLI::Range(1, 32));
   cmd->add_flag("-q,--quiet", args->quiet, "print only the latency summary (with --count > 1)");
   cmd->callback([args] { throw CLI::RuntimeError(run_trigger(*args)); });
 }

@@ -60,6 +60,46 @@ std::vector<cv::Point> project_ring(const Intrinsics& in, const Eigen::Isometry3
   return out;
 }
 
+std::vector<cv::Point> box_quad(const Intrinsics& in, const Eigen::Isometry3d& T_camera_layer,
+                                const DetectedBox& box, double scale) {
+  std::vector<cv::Point> quad;
+  for (const auto& c : box.in_layer.corners()) {
+    const cv::Point2d q = project_to_overlay(in, T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0), scale);
+    quad.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
+  }
+  return quad;
+}
+
+void draw_text(cv::Mat& image, const std::string& text, cv::Point org, double font, const cv::Scalar& colour) {
+  cv::putText(image, text, org, cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(0, 0, 0), 4, cv::LINE_AA);
+  cv::putText(image, text, org, cv::FONT_HERSHEY_SIMPLEX, font, colour, 2, cv::LINE_AA);
+}
+
+/// The pick check over the result: what the pick took, what it missed or took too, what moved.
+void draw_check(cv::Mat& image, const Intrinsics& in, const Eigen::Isometry3d& T_camera_layer,
+                const PickCheck& check, double scale) {
+  const double font = 0.5 * std::max(1.0, scale * in.width / 640.0);
+  for (const BoxCheck& c : check.boxes) {
+    const std::vector<cv::Point> quad = box_quad(in, T_camera_layer, c.now, scale);
+    const cv::Point2d centre = project_to_overlay(in, c.now.center, scale);
+    const cv::Point at(static_cast<int>(centre.x) - 20, static_cast<int>(centre.y) + 22);
+    if (!c.present) {  // gone: crossed out, grey when picked, red when it was not
+      const cv::Scalar colour = c.picked ? cv::Scalar(160, 160, 160) : cv::Scalar(0, 0, 255);
+      cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, colour, 1, cv::LINE_AA);
+      cv::line(image, quad[0], quad[2], colour, 1, cv::LINE_AA);
+      cv::line(image, quad[1], quad[3], colour, 1, cv::LINE_AA);
+      if (!c.picked) draw_text(image, "gone", at, font, colour);
+    } else if (c.picked) {
+      cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(0, 0, 255), 4, cv::LINE_AA);
+      draw_text(image, "missed", at, font, cv::Scalar(0, 0, 255));
+    } else if (c.moved) {
+      cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(255, 255, 0), 2, cv::LINE_AA);
+      draw_text(image, "moved " + std::to_string(static_cast<int>(std::lround(c.shift_mm))) + " mm", at, font,
+                cv::Scalar(255, 255, 0));
+    }
+  }
+}
+
 }  // namespace
 
 /// Box outline colour (BGR): magenta without a gripper; with one, green when the robot can take
@@ -95,7 +135,8 @@ void draw_region_edges(cv::Mat& image, const Frame& frame, const RegionOfInteres
   }
 }
 
-std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection& detection) {
+std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection& detection,
+                                             const PickCheck* check) {
   const Intrinsics& in = frame.intrinsics;
   if (!in.valid() || frame.depth.size() != frame.pixel_count()) return {};
   const double scale = overlay_scale(in);
@@ -111,12 +152,7 @@ std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection
     cv::polylines(image, rings, true, cv::Scalar(255, 255, 255), thick, cv::LINE_AA);
   }
   for (const auto& box : detection.boxes) {
-    std::vector<cv::Point> quad;
-    for (const auto& c : box.in_layer.corners()) {
-      const cv::Point2d q =
-          project_to_overlay(in, layer.T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0), scale);
-      quad.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
-    }
+    const std::vector<cv::Point> quad = box_quad(in, layer.T_camera_layer, box, scale);
     cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, cv::Scalar(0, 0, 0), thick + 2,
                   cv::LINE_AA);
     cv::polylines(image, std::vector<std::vector<cv::Point>>{quad}, true, box_colour(box), thick, cv::LINE_AA);
@@ -129,9 +165,11 @@ std::vector<std::uint8_t> render_overlay_png(const Frame& frame, const Detection
     cv::putText(image, label, org, cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(0, 0, 0), 4, cv::LINE_AA);
     cv::putText(image, label, org, cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
   }
+  if (check != nullptr) draw_check(image, in, layer.T_camera_layer, *check, scale);
   std::string caption = std::string(to_string(detection.status)) + "  boxes: " +
                         std::to_string(detection.boxes.size());
   if (detection.ambiguous) caption += "  AMBIGUOUS";
+  if (check != nullptr) caption += std::string("  check: ") + to_string(check->verdict);
   if (std::any_of(detection.boxes.begin(), detection.boxes.end(), [](const DetectedBox& b) { return b.pick.has_value(); }))
     caption += "  pickable: " + std::to_string(std::count_if(detection.boxes.begin(), detection.boxes.end(),
                                                               [](const DetectedBox& b) { return b.pick->pickable; }));

@@ -9,16 +9,15 @@
 #include <spdlog/spdlog.h>
 
 #include "palletd/drivers/camera.hpp"
-#include "palletd/frames/recorder.hpp"
 #include "palletd/modbus/server.hpp"
-#include "palletd/results/detection_json.hpp"
-#include "palletd/results/overlay.hpp"
 
 #include "acquisition.hpp"
 #include "camera_status.hpp"
 #include "drift_keeper.hpp"
 #include "health_monitor.hpp"
+#include "pick_check_answer.hpp"
 #include "result_record.hpp"
+#include "result_recording.hpp"
 #include "shadow.hpp"
 
 namespace palletd {
@@ -80,10 +79,7 @@ class Service::Impl {
         std::chrono::milliseconds(static_cast<long>(cfg.camera.control_timeout_ms)));
     acquisition_ = std::make_unique<Acquisition>(
         std::move(supervisor), [this](const CameraSupervisor& cam) { publish_status(cam); });
-    if (cfg.recording.enabled) {
-      recorder_ =
-          std::make_unique<FrameRecorder>(RecorderOptions{cfg.recording.directory, cfg.recording.max_bytes});
-    }
+    recording_ = std::make_unique<ResultRecording>(cfg);
     shadow_ = std::make_unique<ShadowRunner>(cfg.shadow, shadow_recording(cfg), kShadowMovedMm);
     configure_health(cfg);
     Status bound = server_.start();
@@ -121,6 +117,7 @@ class Service::Impl {
     next->shadow_config = config.shadow_config;
     next->shadow = config.shadow;
     next->health = config.health;
+    next->check = config.check;
     reload_health_ = true;  // the pipeline thread reloads the drift reference between triggers
     if (shadow_) shadow_->set_config(config.shadow);
     std::lock_guard<std::mutex> lock(config_mutex_);
@@ -128,8 +125,9 @@ class Service::Impl {
   }
 
   Status request_snapshot() {
-    if (!recorder_) return Error{"recording is not enabled (recording.enabled in the configuration)"};
-    snapshot_requested_ = true;
+    if (!recording_ || !recording_->enabled())
+      return Error{"recording is not enabled (recording.enabled in the configuration)"};
+    recording_->ask();
     return {};
   }
 
@@ -155,8 +153,11 @@ class Service::Impl {
     h.failures = failures_.load();
     h.modbus_port = server_.port();
     h.modbus_connections = server_.stats().open_connections;
-    h.recordings = recordings_.load();
-    h.recording_failures = recording_failures_.load();
+    if (recording_) {
+      h.recordings = recording_->recordings();
+      h.recording_failures = recording_->failures();
+      h.last_recording_error = recording_->last_error();
+    }
     if (shadow_) {
       const ShadowCounters shadow = shadow_->counters();
       h.shadow_enabled = shadow.enabled;
@@ -164,10 +165,6 @@ class Service::Impl {
       h.shadow_disagreements = shadow.disagreements;
       h.shadow_skipped = shadow.skipped;
       h.last_shadow_difference = shadow.last_difference;
-    }
-    {
-      std::lock_guard<std::mutex> lock(recording_error_mutex_);
-      h.last_recording_error = last_recording_error_;
     }
     return h;
   }
@@ -224,14 +221,14 @@ class Service::Impl {
         std::optional<modbus::HandshakeEvent> event = server_.wait_event(200ms);
         if (!event) continue;
         if (event->kind == modbus::EventKind::kSaveSnapshot) {
-          snapshot_requested_ = true;
+          if (recording_) recording_->ask();
           continue;
         }
         if (event->kind == modbus::EventKind::kSetDriftReference) {
           set_drift_reference(*event);
           continue;
         }
-        handle_trigger(*event);
+        handle_trigger(*event);  // a Trigger or a PickCheck
       } catch (const std::exception& e) {
         // Never let one trigger take the worker down: report and go on.
         spdlog::error("pipeline: {}", e.what());
@@ -240,20 +237,29 @@ class Service::Impl {
     }
   }
 
+  // A Trigger runs a detection; a PickCheck checks the result in the block against a new frame.
   void handle_trigger(const modbus::HandshakeEvent& event) {
     triggers_.fetch_add(1);
+    const bool is_check = event.kind == modbus::EventKind::kPickCheck;
     const std::shared_ptr<const Config> cfg = config();
+    const std::shared_ptr<const ResultSnapshot> last = is_check ? latest() : nullptr;
     auto snapshot = std::make_shared<ResultSnapshot>();
     snapshot->trigger_seq = event.trigger_seq;
     snapshot->request_id = event.request_id;
-    snapshot->recipe = event.recipe;
+    snapshot->recipe = last ? last->recipe : event.recipe;
     modbus::ResultRecord record;
-    record.request_id = event.request_id;
-    record.recipe = event.recipe;
+    record.request_id = snapshot->request_id;
+    record.recipe = snapshot->recipe;
 
-    const Recipe* recipe = find_recipe(*cfg, event.recipe);
+    const Recipe* recipe = is_check ? nullptr : find_recipe(*cfg, event.recipe);
+    const std::vector<int> picked =
+        last ? picked_boxes(last->detection, event.picked_box, event.picked_group) : std::vector<int>{};
     std::shared_ptr<const Frame> frame;
-    if (recipe == nullptr) {
+    const CheckRefusal refusal = is_check ? refuse_check(last.get(), picked, event) : CheckRefusal{};
+    if (refusal) {
+      fail(record, *snapshot, modbus::ErrorCode::kPickCheckFailed, static_cast<std::uint16_t>(refusal->first),
+           refusal->second);
+    } else if (!is_check && recipe == nullptr) {
       fail(record, *snapshot, modbus::ErrorCode::kUnknownRecipe, event.recipe,
            "recipe " + std::to_string(event.recipe) + " is not configured");
     } else {
@@ -269,9 +275,18 @@ class Service::Impl {
         if (cfg->T_base_camera) f.T_base_camera = cfg->T_base_camera;
         frames_have_base_ = f.T_base_camera.has_value();
         frame = std::make_shared<const Frame>(std::move(f));
-        run_detection(*cfg, *recipe, *frame, record, *snapshot);
+        if (is_check) {
+          run_check(*cfg, *last, *frame, picked, record, *snapshot);
+        } else {
+          run_detection(*cfg, *recipe, *frame, record, *snapshot);
+        }
       }
     }
+    publish(event, *cfg, std::move(snapshot), frame, record);
+  }
+
+  void publish(const modbus::HandshakeEvent& event, const Config& cfg, std::shared_ptr<ResultSnapshot> snapshot,
+               const std::shared_ptr<const Frame>& frame, const modbus::ResultRecord& record) {
     const auto done = Clock::now();
     snapshot->latency_ms = ms_between(event.time, done);
     snapshot->time = std::chrono::system_clock::now();
@@ -284,14 +299,35 @@ class Service::Impl {
       std::lock_guard<std::mutex> lock(latest_mutex_);
       latest_ = snapshot;
     }
-    if (frame) update_health(*frame, snapshot->detection);  // after the result: never delays it
+    const bool detected = frame && !snapshot->check;  // a check reuses the last detection's figures
+    if (detected) update_health(*frame, snapshot->detection);  // after the result: never delays it
     if (result_listener_) result_listener_(*snapshot);
-    if (shadow_ && snapshot->frame) shadow_->submit(snapshot);  // a frame came: a detection ran
-    spdlog::info("trigger {} (request {}, recipe {}): {} box(es), {} in {:.1f} ms", event.trigger_seq,
-                 event.request_id, event.recipe, snapshot->detection.boxes.size(),
-                 snapshot->error_text.empty() ? to_string(snapshot->detection.status) : snapshot->error_text,
+    if (shadow_ && detected) shadow_->submit(snapshot);  // a frame came: a detection ran
+    spdlog::info("{} {} (request {}, recipe {}): {} box(es), {} in {:.1f} ms",
+                 event.kind == modbus::EventKind::kPickCheck ? "pick check" : "trigger", event.trigger_seq,
+                 event.request_id, snapshot->recipe, snapshot->detection.boxes.size(),
+                 !snapshot->error_text.empty() ? snapshot->error_text
+                 : snapshot->check            ? to_string(snapshot->check->verdict)
+                                              : to_string(snapshot->detection.status),
                  snapshot->latency_ms);
-    record_if_asked(*cfg, *snapshot);
+    recording_->after_result(cfg, *snapshot);
+  }
+
+  void run_check(const Config& cfg, const ResultSnapshot& last, const Frame& frame, const std::vector<int>& picked,
+                 modbus::ResultRecord& record, ResultSnapshot& snapshot) {
+    CheckAnswer answer = answer_pick_check(last, frame, picked, cfg);
+    const std::uint16_t request_id = record.request_id;
+    record = std::move(answer.record);
+    record.request_id = request_id;
+    record.recipe = snapshot.recipe;
+    snapshot.detection = std::move(answer.detection);
+    snapshot.check = std::move(answer.check);
+    if (!answer.error_text.empty()) {
+      failures_.fetch_add(1);
+      snapshot.error = record.error;
+      snapshot.error_text = std::move(answer.error_text);
+      spdlog::warn("{}", snapshot.error_text);
+    }
   }
 
   void run_detection(const Config& cfg, const Recipe& recipe, const Frame& frame,
@@ -377,32 +413,11 @@ class Service::Impl {
     publish_status(acquisition_->camera());
   }
 
-  void record_if_asked(const Config& cfg, const ResultSnapshot& snapshot) {
-    const bool asked = snapshot_requested_.exchange(false);
-    if (!recorder_ || !snapshot.frame || !(asked || cfg.recording.every_trigger)) return;
-    const std::string json = detection_to_json_line(snapshot.detection, "");
-    std::vector<std::uint8_t> overlay;
-    if (cfg.recording.overlays) overlay = render_overlay_png(*snapshot.frame, snapshot.detection);
-    Expected<std::string> stem = recorder_->record(*snapshot.frame, json, overlay);
-    // Detection and the PLC's result do not depend on the recording: a full or read-only disk is
-    // reported (log, counter, sd_notify STATUS=) and the next trigger tries again.
-    std::lock_guard<std::mutex> lock(recording_error_mutex_);
-    if (!stem) {
-      recording_failures_.fetch_add(1);
-      last_recording_error_ = stem.error();
-      spdlog::error("recording: {}", stem.error());
-    } else {
-      recordings_.fetch_add(1);
-      last_recording_error_.clear();
-      spdlog::info("recorded {}", *stem);
-    }
-  }
-
   mutable std::mutex config_mutex_;
   std::shared_ptr<const Config> config_;
   modbus::ModbusServer server_;
   std::unique_ptr<Acquisition> acquisition_;
-  std::unique_ptr<FrameRecorder> recorder_;  ///< pipeline thread only
+  std::unique_ptr<ResultRecording> recording_;  ///< created by start()
   std::unique_ptr<ShadowRunner> shadow_;     ///< created by start(); its thread ends with stop()
   DetectionWorkspace workspace_;             ///< pipeline thread only: rays and cloud reused
   HealthMonitor health_monitor_;             ///< pipeline thread only
@@ -415,13 +430,9 @@ class Service::Impl {
   std::mutex status_mutex_;  ///< for status_cv_ only
   std::condition_variable status_cv_;
   std::atomic<bool> running_{false};
-  std::atomic<bool> snapshot_requested_{false};
   std::atomic<bool> frames_have_base_{false};  ///< the last frame came with camera_to_base
   std::atomic<Clock::duration::rep> pipeline_alive_{0};
   std::atomic<std::uint64_t> triggers_{0}, results_{0}, failures_{0};
-  std::atomic<std::uint64_t> recordings_{0}, recording_failures_{0};
-  mutable std::mutex recording_error_mutex_;
-  std::string last_recording_error_;  ///< guarded by recording_error_mutex_
   mutable std::mutex latest_mutex_;
   std::shared_ptr<const ResultSnapshot> latest_;
 };
@@ -438,22 +449,6 @@ modbus::RegisterImage Service::registers() const { return impl_->registers(); }
 modbus::ServerStats Service::modbus_stats() const { return impl_->modbus_stats(); }
 void Service::set_result_listener(std::function<void(const ResultSnapshot&)> listener) {
   impl_->result_listener_ = std::move(listener);
-}
-
-std::string Service::status_line() const {
-  const ServiceHealth h = health();
-  std::string s = h.threads_alive ? "ready" : "degraded";
-  s += ": " + std::to_string(h.triggers) + " triggers, " + std::to_string(h.failures) + " failed; camera " +
-       h.camera_id + " " + h.camera_state + "; modbus port " + std::to_string(h.modbus_port) + ", " +
-       std::to_string(h.modbus_connections) + " client(s)";
-  if ((h.cell_health.warnings & modbus::kHealthDrift) != 0)
-    s += "; DRIFT: camera moved against its reference";
-  if ((h.cell_health.warnings & modbus::kHealthWindowWarnings) != 0) s += "; health warning (see 146)";
-  if (h.recording_failures > 0) {
-    s += "; recording failed " + std::to_string(h.recording_failures) + " time(s)";
-    if (!h.last_recording_error.empty()) s += ", last: " + h.last_recording_error;
-  }
-  return s;
 }
 
 }  // namespace palletd

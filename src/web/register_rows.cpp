@@ -176,7 +176,25 @@ Json health_rows(const modbus::RegisterImage& image, modbus::WordOrder order) {
   return rows;
 }
 
-/// Rows of the result block 200..209 and 530, and of its extension 130..134.
+/// Rows 135..139: what the pick check this result answers found.
+void check_rows(const modbus::RegisterImage& image, const modbus::ResultRecord& rec, Json& rows) {
+  static const char* const kWords[] = {"- (a detection's result)", "pick_ok", "box_still_there", "extra_box_gone",
+                                       "neighbour_moved"};
+  const std::uint16_t code = image[modbus::kRegCheckResult];
+  rows.push_back(row(image, modbus::kRegCheckResult, 1, "pick check", plain(image, modbus::kRegCheckResult),
+                     code < 5 ? kWords[code] : "unknown value"));
+  if (!rec.check) return;
+  rows.push_back(row(image, modbus::kRegCheckBoxesGone, 1, "boxes gone", plain(image, modbus::kRegCheckBoxesGone),
+                     "since the result checked against"));
+  rows.push_back(row(image, modbus::kRegCheckBoxesMoved, 1, "boxes moved", plain(image, modbus::kRegCheckBoxesMoved),
+                     "their slots hold the new poses"));
+  rows.push_back(row(image, modbus::kRegCheckMovedSlot, 1, "moved most", plain(image, modbus::kRegCheckMovedSlot),
+                     "slot + 1 (0 = none)"));
+  rows.push_back(row(image, modbus::kRegCheckLargestMove, 1, "its move", fixed(rec.check->largest_move_m * 1000.0, 1) + " mm",
+                     ""));
+}
+
+/// Rows of the result block 200..209 and 530, and of its extension 130..139.
 Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult& res) {
   const modbus::ResultRecord& rec = res.record;
   Json result = Json::array();
@@ -201,9 +219,10 @@ Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult
   result.push_back(row(image, modbus::kRegLayerZ, 2, "layer height z", fixed(rec.layer_z_m * 1000.0, 1) + " mm", ""));
   result.push_back(row(image, modbus::kRegCoverage, 1, "coverage", fixed(rec.coverage * 100.0, 1) + " %",
                        "layer area covered by the boxes"));
-  const char* detail = rec.detail == modbus::ResultDetail::kEmpty       ? "empty pallet"
-                       : rec.detail == modbus::ResultDetail::kSlipSheet ? "slip sheet: remove it"
-                                                                         : "-";
+  const char* detail = rec.detail == modbus::ResultDetail::kEmpty         ? "empty pallet"
+                       : rec.detail == modbus::ResultDetail::kSlipSheet   ? "slip sheet: remove it"
+                       : rec.detail == modbus::ResultDetail::kLayerPicked ? "layer picked: trigger for the next level"
+                                                                           : "-";
   result.push_back(row(image, modbus::kRegResultDetail, 1, "result detail", plain(image, modbus::kRegResultDetail), detail));
   result.push_back(row(image, modbus::kRegHeightAbovePallet, 2, "height above pallet",
                        rec.height_above_pallet_m ? fixed(*rec.height_above_pallet_m * 1000.0, 1) + " mm" : "-",
@@ -211,6 +230,7 @@ Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult
   result.push_back(row(image, modbus::kRegLayersRemaining, 1, "layers left",
                        rec.layers_remaining ? std::to_string(*rec.layers_remaining) : "-",
                        rec.layers_remaining ? "counting the top layer" : "needs the formats' height_mm too"));
+  check_rows(image, rec, result);
   result.push_back(row(image, modbus::kResultIdCopy, 1, "result id copy", std::to_string(res.result_id_copy),
                        res.result_id_copy == res.result_id ? "matches 200" : "differs from 200: torn read"));
   return result;
@@ -318,7 +338,7 @@ Json registers_json(const modbus::RegisterImage& image, modbus::WordOrder order)
   out["blocks"] = Json::array(
       {Json{{"name", "control"}, {"title", "Control block 0-15 (written by the PLC)"}, {"rows", control}},
        Json{{"name", "status"}, {"title", "Status block 100-129 (read-only)"}, {"rows", status}},
-       Json{{"name", "result"}, {"title", "Result block 200-209, 530, its extension 130-134 and the pick block 540-902 (read-only)"}, {"rows", result}},
+       Json{{"name", "result"}, {"title", "Result block 200-209, 530, its extension 130-139 and the pick block 540-902 (read-only)"}, {"rows", result}},
        Json{{"name", "connections"}, {"title", "Modbus connections 140-145 (read-only)"},
             {"rows", connection_rows(image, order)}},
        Json{{"name", "health"}, {"title", "Cell health 146-155 (read-only)"}, {"rows", health_rows(image, order)}}});

@@ -180,6 +180,16 @@ Json status_json(const ServiceHealth& health, const modbus::RegisterImage& image
   return j;
 }
 
+/// A pick check's findings: the verdict, and per box of the result checked against whether the
+/// pick took it, whether it still stands, and how far it moved.
+Json check_json(const PickCheck& check) {
+  Json boxes = Json::array();
+  for (const BoxCheck& c : check.boxes)
+    boxes.push_back({{"box", c.box}, {"picked", c.picked}, {"present", c.present}, {"moved", c.moved},
+                     {"shift_mm", c.shift_mm}, {"turn_deg", c.turn_deg}});
+  return {{"verdict", to_string(check.verdict)}, {"message", check.message}, {"boxes", std::move(boxes)}};
+}
+
 Json result_json(const ResultSnapshot& snapshot, const std::string& stem, const std::vector<RecipeInfo>& recipes) {
   Json j = Json::parse(detection_to_json_line(snapshot.detection, stem));
   const RecipeInfo* recipe = find_recipe(recipes, snapshot.recipe);
@@ -223,6 +233,7 @@ Json result_json(const ResultSnapshot& snapshot, const std::string& stem, const 
     table.push_back(std::move(r));
   }
   j["table"] = std::move(table);
+  j["check"] = snapshot.check ? check_json(*snapshot.check) : Json(nullptr);
   j["files"] = {{"overlay", "/api/overlay.png"},
                 {"depth", "/api/frame/depth.png"},
                 {"intensity", snapshot.frame && snapshot.frame->has_intensity() ? "/api/frame/intensity.png" : ""},

@@ -275,7 +275,8 @@ class WebServer::Impl {
       std::string png;
       const bool any = with_latest([&](Cached& c) {
         if (!c.overlay_done && c.snapshot->frame) {
-          const std::vector<std::uint8_t> bytes = render_overlay_png(*c.snapshot->frame, c.snapshot->detection);
+          const std::vector<std::uint8_t> bytes = render_overlay_png(*c.snapshot->frame, c.snapshot->detection,
+                                                                     c.snapshot->check ? &*c.snapshot->check : nullptr);
           c.overlay_png.assign(bytes.begin(), bytes.end());
         }
         c.overlay_done = true;

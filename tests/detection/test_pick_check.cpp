@@ -110,6 +110,20 @@ TEST_CASE("pick check: a missed pick and a double pick", "[pick_check]") {
   CHECK(twice.verdict == PickVerdict::kExtraBoxGone);
   CHECK_FALSE(twice.boxes[static_cast<std::size_t>(neighbour)].present);
   CHECK(twice.message.find("box " + std::to_string(neighbour)) != std::string::npos);
+
+  // The layout after each: a missed box stays; both boxes of a double pick go, the order closes up.
+  const Frame& frame = p.before.frame;
+  CHECK(after_pick(p.last, missed, frame, DetectionParams{}).boxes.size() == p.last.boxes.size());
+  const Detection after = after_pick(p.last, twice, frame, DetectionParams{});
+  REQUIRE(after.boxes.size() == p.last.boxes.size() - 2);
+  for (std::size_t i = 0; i < after.boxes.size(); ++i) {
+    CHECK(after.boxes[i].pick_index == static_cast<int>(i));
+    for (const int gone : {0, neighbour})
+      CHECK((after.boxes[i].center - p.last.boxes[static_cast<std::size_t>(gone)].center).norm() > 0.05);
+  }
+  PickCheck failed = twice;
+  failed.verdict = PickVerdict::kFailed;
+  CHECK(after_pick(p.last, failed, frame, DetectionParams{}).boxes.size() == p.last.boxes.size());
 }
 
 // Time-of-flight profiles: a stereo camera's ragged edges (d435) scatter the sides by several

@@ -83,3 +83,19 @@ TEST_CASE("gripper: bad values name the key and the line") {
   CHECK(shape.key == "gripper");
   CHECK(shape.line == 1);
 }
+
+TEST_CASE("check: the pick check's tolerances parse, default to 5 mm and 1 degree, bad ones name the line") {
+  const Config defaults = parse_config("pipeline: {}\n", "d.yaml");
+  CHECK(defaults.check.tolerance_mm == 5.0);
+  CHECK(defaults.check.tolerance_deg == 1.0);
+  const Config c = parse_config("check:\n  tolerance_mm: 8\n  tolerance_deg: 2.5\n", "c.yaml");
+  CHECK(c.check.tolerance_mm == 8.0);
+  CHECK(c.check.tolerance_deg == 2.5);
+  CHECK(config_differences(defaults, c) == std::vector<std::string>{"check.tolerance_mm", "check.tolerance_deg"});
+  const test::ConfigFailure negative = failure_of("pipeline: {}\ncheck:\n  tolerance_mm: -3\n");
+  CHECK(negative.line == 3);
+  CHECK(negative.key == "check.tolerance_mm");
+  const test::ConfigFailure unknown = failure_of("check:\n  tolerance_deg: 1\n  tolerence_mm: 4\n");
+  CHECK(unknown.line == 3);
+  CHECK_THAT(unknown.what, Contains("tolerence_mm"));
+}

@@ -110,3 +110,57 @@ TEST_CASE("overlay: with a gripper, pickable boxes green, boxes waiting for a ne
   CHECK(blocked[2] > 200);   // red
   CHECK(blocked[1] < 80);
 }
+
+TEST_CASE("overlay: a pick check draws the picked box grey, a box gone too red, a moved box cyan") {
+  auto frame = read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/22_block_600x400_xtion");
+  REQUIRE(frame);
+  Detection detection;
+  detection.status = DetectionStatus::kOk;
+  detection.layer.T_camera_layer = Eigen::Isometry3d::Identity();
+  detection.layer.T_camera_layer.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  detection.layer.T_camera_layer.translation() = Eigen::Vector3d(0.0, 0.0, 1.5);
+  PickCheck check;
+  check.verdict = PickVerdict::kExtraBoxGone;
+  for (int i = 0; i < 3; ++i) {
+    BoxCheck& c = check.boxes.emplace_back();
+    c.box = i;
+    c.now.in_layer.center = Eigen::Vector2d(-0.35 + 0.35 * i, 0.0);
+    c.now.in_layer.long_m = 0.3;
+    c.now.in_layer.short_m = 0.2;
+    c.now.center = detection.layer.T_camera_layer * Eigen::Vector3d(c.now.in_layer.center.x(), 0.0, 0.0);
+    c.picked = i == 1;
+    c.present = i == 0;
+    c.moved = i == 0;
+    c.shift_mm = 21.0;
+  }
+  detection.boxes.push_back(check.boxes[0].now);  // the one left, at its new pose
+  const cv::Mat image =
+      cv::imdecode(render_overlay_png(*frame, detection, &check), cv::IMREAD_COLOR);
+  REQUIRE_FALSE(image.empty());
+  const Intrinsics& k = frame->intrinsics;
+  auto pixel = [&](double x_m) {
+    const int u = static_cast<int>(std::lround(k.fx * x_m / 1.5 + k.cx));
+    const int v = static_cast<int>(std::lround(k.cy));
+    cv::Vec3b best(0, 0, 0);
+    for (int du = -2; du <= 2; ++du) {
+      const cv::Vec3b c = image.at<cv::Vec3b>(v, u + du);
+      if (c[0] + c[1] + c[2] > best[0] + best[1] + best[2]) best = c;
+    }
+    return best;
+  };
+  const cv::Vec3b moved = pixel(-0.35 - 0.15), taken = pixel(0.0), extra = pixel(0.35);
+  CAPTURE(moved, taken, extra);
+  CHECK(moved[0] > 200);  // cyan outline
+  CHECK(moved[1] > 200);
+  CHECK(moved[2] < 80);
+  CHECK(std::abs(taken[0] - taken[2]) < 20);  // grey cross where the picked box stood
+  CHECK(taken[0] > 120);
+  CHECK(extra[2] > 200);  // red cross: gone though not picked
+  CHECK(extra[0] < 80);
+  CHECK(extra[1] < 80);
+  // Without the check the same result draws none of that.
+  const cv::Mat plain = cv::imdecode(render_overlay_png(*frame, detection), cv::IMREAD_COLOR);
+  const cv::Vec3b extra_plain = plain.at<cv::Vec3b>(static_cast<int>(std::lround(k.cy)),
+                                                    static_cast<int>(std::lround(k.fx * 0.35 / 1.5 + k.cx)));
+  CHECK_FALSE((extra_plain[2] > 200 && extra_plain[0] < 80 && extra_plain[1] < 80));
+}

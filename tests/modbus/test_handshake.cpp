@@ -303,3 +303,48 @@ TEST_CASE("HealthWarning and DriftWarning follow the service's health flags, Set
   CHECK(events[0].kind == EventKind::kSetDriftReference);
   CHECK(plc.write(kCtlSetDriftReference, 1, 5).empty());  // held high: no second edge
 }
+
+TEST_CASE("PickCheck is a request like Trigger: it latches the picked box and group, keeps the recipe",
+          "[modbus][handshake]") {
+  Clock::time_point now{};
+  Handshake hs(HandshakeOptions{}, now);
+  Plc plc{{}, hs, now};
+  hs.on_service_status(ready_status());
+  REQUIRE(plc.write(kCtlTrigger, 3, 100).size() == 1);
+  plc.word(0);
+  hs.on_result(ok_result(100, 4), now);
+  plc.word(kCtlResultAck);
+  plc.word(0);
+
+  plc.control[kRegPickedBox] = 0;
+  plc.control[kRegPickedGroup] = 2;
+  auto events = plc.write(kCtlPickCheck, 9, 101);  // register 1 is not latched by a check
+  REQUIRE(events.size() == 1);
+  CHECK(events[0].kind == EventKind::kPickCheck);
+  CHECK(events[0].picked_box == 0);
+  CHECK(events[0].picked_group == 2);
+  CHECK(events[0].request_id == 101);
+  CHECK(events[0].recipe == 3);
+  CHECK(events[0].trigger_seq == 2);
+  CHECK(hs.registers()[kRegActiveRecipe] == 3);
+  CHECK((plc.status() & (kStBusy | kStTriggerAck)) == (kStBusy | kStTriggerAck));
+  CHECK((plc.status() & kStResultReady) == 0);
+
+  // A second request while the check runs is missed, whichever bit it comes on.
+  CHECK(plc.word(kCtlPickCheck | kCtlTrigger).empty());
+  CHECK(plc.word(0).empty());
+  CHECK((plc.status() & kStTriggerAck) == 0);  // neither bit set any more
+  CHECK(hs.missed_total() == 1);
+
+  ResultRecord checked = ok_result(101, 3);
+  checked.check = CheckRecord{CheckResult::kNeighbourMoved, 1, 1, 2, 0.0213};
+  hs.on_result(checked, now);
+  CHECK((plc.status() & (kStBusy | kStResultReady)) == kStResultReady);
+  CHECK(hs.registers()[kRegCheckResult] == 4);
+  CHECK(hs.registers()[kRegCheckBoxesGone] == 1);
+  CHECK(hs.registers()[kRegCheckMovedSlot] == 2);
+  CHECK(hs.registers()[kRegCheckLargestMove] == 213);
+  hs.on_result(ok_result(102, 3), now);  // the next detection clears 135..139
+  CHECK(hs.registers()[kRegCheckResult] == 0);
+  CHECK(hs.registers()[kRegCheckLargestMove] == 0);
+}

@@ -168,6 +168,31 @@ TEST_CASE("the result extension 130..134: detail, height above the pallet, layer
   }
 }
 
+TEST_CASE("the pick check registers 135..139 encode and decode back, 0 on a detection's result",
+          "[modbus][register_map]") {
+  RegisterImage image{};
+  ResultRecord in = make_result(3);
+  in.check = CheckRecord{CheckResult::kNeighbourMoved, 2, 1, 3, 7.0};  // 7 m saturates at 6553.5 mm
+  encode_result(in, 11, WordOrder::kLowWordFirst, image);
+  CHECK(image[kRegCheckResult] == 4);
+  CHECK(image[kRegCheckBoxesGone] == 2);
+  CHECK(image[kRegCheckBoxesMoved] == 1);
+  CHECK(image[kRegCheckMovedSlot] == 3);
+  CHECK(image[kRegCheckLargestMove] == 65535);
+  const DecodedResult out = decode_result(image, WordOrder::kLowWordFirst);
+  REQUIRE(out.record.check);
+  CHECK(out.record.check->result == CheckResult::kNeighbourMoved);
+  CHECK(out.record.check->moved_slot == 3);
+  CHECK(out.record.check->largest_move_m == Approx(6.5535));
+  in.check->largest_move_m = 0.0123;
+  encode_result(in, 12, WordOrder::kHighWordFirst, image);
+  CHECK(image[kRegCheckLargestMove] == 123);
+  in.check.reset();
+  encode_result(in, 13, WordOrder::kHighWordFirst, image);
+  for (std::uint16_t a = kRegCheckResult; a <= kRegCheckLargestMove; ++a) CHECK(image[a] == 0);
+  CHECK_FALSE(decode_result(image, WordOrder::kHighWordFirst).record.check);
+}
+
 TEST_CASE("the status block carries version, format flags and the test pattern",
           "[modbus][register_map]") {
   StatusRecord s;

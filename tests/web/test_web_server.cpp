@@ -269,6 +269,33 @@ TEST_CASE("with a gripper the box table says which boxes the robot can take now,
   CHECK(j["table"][0]["blocked_by"] == "");
   CHECK(j["table"][1]["pickable"] == false);
   CHECK(j["table"][1]["blocked_by"] == "higher_level");
+  CHECK(j["check"].is_null());  // a detection's result
+}
+
+TEST_CASE("a result that answers a pick check carries the verdict and each checked box in /api/result") {
+  testing::WebFixture& f = shared_fixture();
+  auto s = std::make_shared<ResultSnapshot>(f.first());
+  PickCheck check;
+  check.verdict = PickVerdict::kNeighbourMoved;
+  check.message = "box 2 moved 21.0 mm";
+  check.boxes.resize(3);
+  check.boxes[0].picked = true;
+  check.boxes[2].present = check.boxes[2].moved = true;
+  check.boxes[2].box = 2;
+  check.boxes[2].shift_mm = 21.0;
+  s->check = check;
+  testing::WebFixture local;
+  local.set_latest(s);
+  Running run(local, test_options());
+  const Json j = get_json(run.client, "/api/result");
+  REQUIRE(j["check"].is_object());
+  CHECK(j["check"]["verdict"] == "neighbour_moved");
+  CHECK(j["check"]["message"] == check.message);
+  REQUIRE(j["check"]["boxes"].size() == 3);
+  CHECK(j["check"]["boxes"][0]["picked"] == true);
+  CHECK(j["check"]["boxes"][0]["present"] == false);
+  CHECK(j["check"]["boxes"][2]["moved"] == true);
+  CHECK(j["check"]["boxes"][2]["shift_mm"].get<double>() == Approx(21.0));
 }
 
 TEST_CASE("/api/overlay.png is the overlay of the latest snapshot, rendered once") {

@@ -15,6 +15,7 @@
 #include "palletd/core/frame.hpp"
 #include "palletd/core/geometry.hpp"
 #include "palletd/detection/detection.hpp"
+#include "palletd/detection/pick_check.hpp"
 #include "palletd/drivers/camera_config.hpp"
 #include "palletd/modbus/server.hpp"
 #include "palletd/web/web.hpp"
@@ -75,6 +76,7 @@ struct Config {
   WebConfig web;
   MetricsConfig metrics;
   HealthConfig health;
+  PickCheckParams check;  ///< `check`: what the check after a pick counts as a moved box
   /// `shadow_config`: a second configuration the daemon runs on every triggered frame after the
   /// live result, to count where it would differ (its detection, formats, recipes and
   /// camera_to_base are used). The resolved path ("" = none) and the file as loaded.

@@ -58,4 +58,12 @@ struct PickCheck {
 PickCheck check_pick(const Frame& before, const Detection& last, const Frame& after,
                      const std::vector<int>& picked, const PickCheckParams& check);
 
+/// The last result as it stands after a checked pick, without a layout search: the boxes the check
+/// found gone are dropped (picked or not), every other box takes its pose after the pick
+/// (`BoxCheck::now`), the pick order keeps the last order, and with a gripper
+/// (`params.gripper`) the picks are planned again on the frame after. A check that failed leaves
+/// `last` as it was. `check` must come from check_pick() on `last` and `after`.
+Detection after_pick(const Detection& last, const PickCheck& check, const Frame& after,
+                     const DetectionParams& params);
+
 }  // namespace palletd

@@ -33,9 +33,17 @@ class PlcClient {
   /// Waits for Ready and not Busy, triggers with `recipe` and `request_id`, waits for the result,
   /// reads it consistently (result id in 200, 530, 540 and 902 agree), acknowledges it.
   Expected<TriggerResult> trigger(std::uint16_t recipe, std::uint16_t request_id, std::chrono::milliseconds timeout);
+  /// The same handshake with PickCheck after a pick: writes the picked box and group (slot + 1,
+  /// 0 = none) to registers 4 and 5 and the request id to 2, raises PickCheck.
+  Expected<TriggerResult> pick_check(std::uint16_t picked_box, std::uint16_t picked_group, std::uint16_t request_id,
+                                     std::chrono::milliseconds timeout);
 
  private:
   Expected<std::uint16_t> read_status_word();
+  /// Raises `control_bit` (registers 1.. already written), waits for the result of `request_id`,
+  /// reads it and acknowledges it.
+  Expected<TriggerResult> run_handshake(std::uint16_t control_bit, std::uint16_t request_id,
+                                        std::chrono::steady_clock::time_point deadline);
   Status wait_status(std::uint16_t mask, std::uint16_t want, std::chrono::steady_clock::time_point deadline,
                      const char* what);
 

@@ -4,13 +4,15 @@
 // its own: callers pass the time, so tests drive it deterministically.
 //
 // Rules (docs/register-map.md has the PLC's view):
-// - Trigger, ResultAck, ClearError, SaveSnapshot and SetDriftReference act on their rising edge in
+// - Trigger, PickCheck, ResultAck, ClearError, SaveSnapshot and SetDriftReference act on their rising edge in
 //   the control word; edges written in one request are taken in the order ResultAck, ClearError,
-//   Trigger, SaveSnapshot, SetDriftReference.
+//   Trigger, PickCheck, SaveSnapshot, SetDriftReference.
 // - Trigger edge while Ready and not Busy: latch recipe (1) and request id (2) written with it,
 //   clear ResultReady, set Busy and TriggerAck, emit a kTrigger event. Otherwise (Busy or not
 //   Ready): set MissedTrigger and count it (112); no event.
-// - Trigger falling edge: clear TriggerAck.
+// - PickCheck edge: the same, latching the request id (2) and the picked box (4) and group (5)
+//   instead of the recipe, and emitting a kPickCheck event; its result answers the check.
+// - TriggerAck clears when neither Trigger nor PickCheck is set any more.
 // - A result (on_result): if the previous result was never acknowledged, set ResultOverrun; encode
 //   the result block with the next result id (1..65535, wrapping past 0), then set ResultReady,
 //   set/clear the result error (Error bit, 101/102) from the result status, clear Busy.
@@ -54,14 +56,16 @@ struct ServiceStatus {
   HealthRecord health;                 ///< registers 146..155, status word bits 9 and 10
 };
 
-enum class EventKind : std::uint8_t { kTrigger, kSaveSnapshot, kSetDriftReference };
+enum class EventKind : std::uint8_t { kTrigger, kPickCheck, kSaveSnapshot, kSetDriftReference };
 
 struct HandshakeEvent {
   EventKind kind = EventKind::kTrigger;
   std::uint16_t recipe = 0;      ///< latched with the trigger (current register 1 for snapshots)
   std::uint16_t request_id = 0;  ///< latched with the trigger (current register 2 for snapshots)
-  std::uint64_t trigger_seq = 0; ///< 1, 2, ... per accepted trigger (last one for snapshots)
+  std::uint64_t trigger_seq = 0; ///< 1, 2, ... per accepted trigger or check (last one for snapshots)
   std::chrono::steady_clock::time_point time;  ///< when the edge was seen
+  std::uint16_t picked_box = 0;    ///< kPickCheck: register 4 latched with the edge (slot + 1, 0 = none)
+  std::uint16_t picked_group = 0;  ///< kPickCheck: register 5 latched with the edge (slot + 1, 0 = none)
 };
 
 class Handshake {
@@ -95,6 +99,9 @@ class Handshake {
 
  private:
   void refresh();
+  /// A Trigger or PickCheck edge: accepted (Busy, an event) when Ready and not Busy, else missed.
+  void start_request(EventKind kind, const std::uint16_t* control, Clock::time_point now,
+                     std::vector<HandshakeEvent>& events);
 
   HandshakeOptions options_;
   RegisterImage image_{};

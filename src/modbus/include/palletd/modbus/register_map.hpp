@@ -43,6 +43,8 @@ inline constexpr std::uint16_t kRegControlWord = 0;
 inline constexpr std::uint16_t kRegRecipe = 1;
 inline constexpr std::uint16_t kRegRequestId = 2;
 inline constexpr std::uint16_t kRegPlcHeartbeat = 3;
+inline constexpr std::uint16_t kRegPickedBox = 4;    ///< box slot + 1 the last pick took (0 = none); latched with PickCheck
+inline constexpr std::uint16_t kRegPickedGroup = 5;  ///< group slot + 1 the last pick took (0 = none); latched with PickCheck
 // status block
 inline constexpr std::uint16_t kRegStatusWord = 100;
 inline constexpr std::uint16_t kRegErrorCode = 101;
@@ -69,11 +71,17 @@ inline constexpr std::uint16_t kRegCameraRestarts = 126;    ///< 126-127
 inline constexpr std::uint16_t kRegResentPackets = 128;     ///< 128-129
 // result extension 130..139: written with each result (same image update), cleared with it
 inline constexpr std::uint16_t kResultExtStart = 130;
-inline constexpr std::uint16_t kResultExtCount = 10;        ///< 130..139 (135..139 reserved, read 0)
+inline constexpr std::uint16_t kResultExtCount = 10;        ///< 130..139
 inline constexpr std::uint16_t kRegResultDetail = 130;      ///< ResultDetail
 inline constexpr std::uint16_t kRegLayerInfoFlags = 131;    ///< kLayer* bits: which of 132..134 are known
 inline constexpr std::uint16_t kRegHeightAbovePallet = 132; ///< 132-133, int32 0.1 mm
 inline constexpr std::uint16_t kRegLayersRemaining = 134;
+// pick check (135..139): set on a result that answers a PickCheck, 0 on a detection's result
+inline constexpr std::uint16_t kRegCheckResult = 135;       ///< CheckResult
+inline constexpr std::uint16_t kRegCheckBoxesGone = 136;    ///< boxes gone since the result checked against
+inline constexpr std::uint16_t kRegCheckBoxesMoved = 137;   ///< boxes left that moved (new poses in their slots)
+inline constexpr std::uint16_t kRegCheckMovedSlot = 138;    ///< slot + 1 of the box that moved most (0 = none)
+inline constexpr std::uint16_t kRegCheckLargestMove = 139;  ///< its move [0.1 mm], saturated at 65535
 // Modbus connection block 140..145, read-only: the server's own connection counters
 inline constexpr std::uint16_t kConnectionStart = 140;
 inline constexpr std::uint16_t kConnectionCount = 6;        ///< 140..145
@@ -115,6 +123,7 @@ inline constexpr std::uint16_t kCtlResultAck = 1u << 1;
 inline constexpr std::uint16_t kCtlClearError = 1u << 2;
 inline constexpr std::uint16_t kCtlSaveSnapshot = 1u << 3;
 inline constexpr std::uint16_t kCtlSetDriftReference = 1u << 4;
+inline constexpr std::uint16_t kCtlPickCheck = 1u << 5;
 // status word bits (register 100)
 inline constexpr std::uint16_t kStReady = 1u << 0;
 inline constexpr std::uint16_t kStBusy = 1u << 1;
@@ -165,6 +174,23 @@ enum class ErrorCode : std::uint16_t {
   kUnknownRecipe = 5,       ///< detail: the recipe number asked for
   kPlcHeartbeatLost = 6,    ///< register 3 did not change within the configured timeout
   kInternal = 7,            ///< anything else; see the log
+  kPickCheckFailed = 8,     ///< detail: PickCheckFailure; the result block keeps the last layout
+};
+
+/// Detail codes (register 102) for ErrorCode::kPickCheckFailed.
+enum class PickCheckFailure : std::uint16_t {
+  kNoLayout = 1,       ///< the result in the block has no boxes to check against
+  kNothingPicked = 2,  ///< registers 4 and 5 name no box or group of that result
+  kBadFrame = 3,       ///< the frame after the pick cannot be read against the last one
+};
+
+/// What a pick check found (register 135); 0 on the result of a detection.
+enum class CheckResult : std::uint16_t {
+  kNone = 0,
+  kPickOk = 1,          ///< the picked boxes are gone, the others where they were
+  kBoxStillThere = 2,   ///< a picked box still stands (missed pick): it stays in the result
+  kExtraBoxGone = 3,    ///< a box that was not picked is gone too (double pick)
+  kNeighbourMoved = 4,  ///< a box left moved beyond check.tolerance_mm: its slot holds the new pose
 };
 
 /// Detail codes (register 102) for ErrorCode::kDetectionFailed.
@@ -182,6 +208,7 @@ enum class ResultDetail : std::uint16_t {
   kNone = 0,
   kEmpty = 5,      ///< the empty pallet, or nothing stands inside the region of interest
   kSlipSheet = 6,  ///< a sheet covers the layer: remove it before the next trigger
+  kLayerPicked = 7,  ///< a pick check found the layer's last box gone: trigger for the next level
 };
 
 /// Result status in register 202.
@@ -199,7 +226,7 @@ enum class PickStatus : std::uint16_t {
 enum class WordOrder : std::uint8_t { kHighWordFirst, kLowWordFirst };
 
 /// The whole addressable register space 0..902 (control, status, result extension, connection,
-/// health, result and pick blocks; the gaps 16..99, 135..139, 154..199, 531..539 and 545..549
+/// health, result and pick blocks; the gaps 16..99, 154..199, 531..539 and 545..549
 /// read 0).
 using RegisterImage = std::array<std::uint16_t, kRegisterCount>;
 
@@ -224,6 +251,15 @@ struct GroupRecord {
 
 /// One finished detection as the service reports it. Box order is the service's; only the first
 /// kMaxBoxes are encoded.
+/// A pick check's findings (registers 135..139).
+struct CheckRecord {
+  CheckResult result = CheckResult::kNone;
+  std::uint16_t boxes_gone = 0;
+  std::uint16_t boxes_moved = 0;
+  std::uint16_t moved_slot = 0;   ///< slot + 1 of the box that moved most; 0 = none moved
+  double largest_move_m = 0.0;    ///< that box's move [m]
+};
+
 struct ResultRecord {
   std::uint16_t request_id = 0;  ///< request id latched with the trigger this answers
   std::uint16_t recipe = 0;      ///< recipe used
@@ -249,6 +285,8 @@ struct ResultRecord {
   /// encoded (at most kMaxGroups).
   std::vector<GroupRecord> groups;
   std::uint16_t pickable_boxes = 0;  ///< among all boxes found, not only the reported ones
+  /// The result answers a PickCheck (registers 135..139); null for a detection's result.
+  std::optional<CheckRecord> check;
 };
 
 /// Camera fault counters since the daemon started (registers 118..129), uint32 each.

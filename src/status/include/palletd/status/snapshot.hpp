@@ -11,6 +11,7 @@
 
 #include "palletd/core/frame.hpp"
 #include "palletd/detection/detection.hpp"
+#include "palletd/detection/pick_check.hpp"
 #include "palletd/modbus/register_map.hpp"
 
 namespace palletd {
@@ -22,7 +23,9 @@ struct ResultSnapshot {
   std::uint16_t recipe = 0;
   modbus::ErrorCode error = modbus::ErrorCode::kNone;
   std::string error_text;  ///< "" when the detection ran; else why it did not
-  Detection detection;
+  Detection detection;  ///< after a pick check: the checked layout brought up to date
+  /// The result answers a PickCheck: what the check found (its boxes index the checked result's).
+  std::optional<PickCheck> check;
   std::shared_ptr<const Frame> frame;  ///< the frame the result was computed from (may be null)
   double latency_ms = 0.0;             ///< trigger edge to result published [ms]
   std::chrono::system_clock::time_point time;
