@@ -1,7 +1,9 @@
-// The pick check end to end: a simulated layer picked box by box, the frames replayed by the camera
-// driver, the PLC's side done by a real Modbus TCP client over loopback: trigger, take the first
-// group, PickCheck with the group's number, read the check (135..139) and the layout after the pick.
+// The pick check end to end: a simulated layer picked box by box until it is gone, the frames
+// replayed by the camera driver, the PLC's side done by a real Modbus TCP client over loopback:
+// trigger, take the first group, PickCheck with the group's number, read the check (135..139) and
+// the layout after the pick, and at the end trigger for the next level.
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 
 #include <catch2/catch.hpp>
@@ -32,7 +34,8 @@ struct TempDir {
   }
 };
 
-/// A 400x300 block layer under a small time-of-flight camera, with the config that detects it.
+/// A 600x400 block layer (four cartons on a 1200x800 pallet) under a small time-of-flight camera, with the
+/// config that detects it.
 struct Cell {
   sim::SensorProfile profile = *sim::profile_by_name("helios2");
   sim::Scene scene;
@@ -42,7 +45,7 @@ struct Cell {
   Cell(const fs::path& replay, std::uint64_t seed) {
     sim::ScenarioOptions o;
     o.pattern = sim::PatternFamily::kBlock;
-    o.formats = {*sim::parse_format("400x300x250")};
+    o.formats = {*sim::parse_format("600x400x250")};
     o.tilt_max_deg = 5.0;
     o.height_min_m = 1.6;
     o.height_max_m = 1.9;
@@ -59,13 +62,15 @@ struct Cell {
     config.modbus.port = 0;
     config.recording.enabled = false;
     GripperParams gripper;
-    gripper.footprint_mm = Eigen::Vector2d(380.0, 280.0);
+    gripper.footprint_mm = Eigen::Vector2d(560.0, 360.0);
     config.detection.gripper = gripper;
   }
 
   /// Renders `s`, writes it as replay frame `index` and returns the frame as read back.
   Frame write(const sim::Scene& s, const fs::path& replay, int index, std::uint64_t seed) const {
-    const std::string stem = (replay / ("frame_" + std::to_string(index))).string();
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%03d", index);  // replayed in name order
+    const std::string stem = (replay / name).string();
     REQUIRE(write_frame(stem, sim::render(s, profile, seed).frame).ok());
     Expected<Frame> back = read_frame(stem);
     REQUIRE(back.ok());
@@ -100,95 +105,97 @@ std::size_t nearest_standing(const sim::Scene& scene, std::size_t k) {
 
 }  // namespace
 
-TEST_CASE("pick check over Modbus: a clean pick, then a dragged neighbour with its new pose",
+TEST_CASE("pick check over Modbus: a layer picked box by box, a dragged neighbour, then the next level",
           "[pick_check]") {
   TempDir tmp;
   Cell cell(tmp.dir, 8123);
-  // Frame 0: the layer. Detected here the same way the daemon will, to know its first pick.
-  const Frame f0 = cell.write(cell.scene, tmp.dir, 0, 11);
-  const Detection d0 = detect(f0, cell.formats, cell.config.detection);
-  REQUIRE(d0.status == DetectionStatus::kOk);
-  REQUIRE(d0.boxes.size() == cell.scene.top_layer.size());
-  REQUIRE_FALSE(d0.groups.empty());
-  // Frame 1: the first group's box taken. Frame 2: the next group's box taken too, and the robot
-  // dragged that box's nearest neighbour 20 mm along x.
-  sim::Scene s1 = cell.scene;
-  const std::size_t first = scene_box(s1, d0.boxes[static_cast<std::size_t>(d0.groups[0].boxes.front())]);
-  remove_box(s1, first);
-  const Frame f1 = cell.write(s1, tmp.dir, 1, 12);
-  const PickCheck c1 = check_pick(f0, d0, f1, d0.groups[0].boxes, cell.config.check);
-  REQUIRE(c1.verdict == PickVerdict::kPickOk);
-  const Detection d1 = after_pick(d0, c1, f1, cell.config.detection);
-  REQUIRE_FALSE(d1.groups.empty());
-  sim::Scene s2 = s1;
-  const std::size_t second = scene_box(s2, d1.boxes[static_cast<std::size_t>(d1.groups[0].boxes.front())]);
-  remove_box(s2, second);
-  const std::size_t dragged = nearest_standing(s2, second);
-  s2.boxes[dragged].center.x() += 0.020;
-  cell.write(s2, tmp.dir, 2, 13);
+  // The frames the replay camera serves, worked out here the way the daemon will: the layer twice
+  // (the first detection is spoilt by a check that names nothing); after each pick the layer
+  // without the first group's box, the robot dragging the nearest neighbour 20 mm into the gap at
+  // the second pick; the layer gone, seen once more for the trigger that finds the next level.
+  sim::Scene s = cell.scene;
+  cell.write(s, tmp.dir, 0, 100);
+  Frame f = cell.write(s, tmp.dir, 1, 100);
+  Detection d = detect(f, cell.formats, cell.config.detection);
+  REQUIRE(d.status == DetectionStatus::kOk);
+  const std::size_t n = d.boxes.size();
+  REQUIRE(n == cell.scene.top_layer.size());
+  std::size_t dragged = 0;
+  std::vector<PickVerdict> verdicts;
+  for (std::size_t k = 1; k <= n; ++k) {
+    REQUIRE_FALSE(d.groups.empty());
+    const std::size_t taken = scene_box(s, d.boxes[static_cast<std::size_t>(d.groups[0].boxes.front())]);
+    remove_box(s, taken);
+    if (k == 2) {
+      dragged = nearest_standing(s, taken);
+      s.boxes[dragged].center += 0.020 * (s.boxes[taken].center - s.boxes[dragged].center).normalized();
+    }
+    const Frame next = cell.write(s, tmp.dir, static_cast<int>(k + 1), 100 + k);
+    const PickCheck c = check_pick(f, d, next, d.groups[0].boxes, cell.config.check);
+    verdicts.push_back(c.verdict);
+    d = after_pick(d, c, next, cell.config.detection);
+    f = next;
+  }
+  REQUIRE(d.boxes.empty());
+  REQUIRE(verdicts[1] == PickVerdict::kNeighbourMoved);
+  cell.write(s, tmp.dir, static_cast<int>(n + 2), 300);
 
   Service service(cell.config);
   REQUIRE(service.start().ok());
   modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, cell.config.modbus.unit_id);
   REQUIRE(plc.connect().ok());
+  auto fails_with = [](const modbus::PlcClient::TriggerResult& r, modbus::PickCheckFailure why) {
+    CHECK(r.status.error == modbus::ErrorCode::kPickCheckFailed);
+    CHECK(r.status.error_detail == static_cast<std::uint16_t>(why));
+    CHECK(r.result.record.status == modbus::ResultStatus::kFailed);
+    CHECK(r.result.record.boxes.empty());
+  };
+  auto early = plc.pick_check(1, 0, 5, 10s);  // nothing to check against yet
+  REQUIRE(early.ok());
+  fails_with(*early, modbus::PickCheckFailure::kNoLayout);
+  REQUIRE(plc.trigger(1, 6, 10s).ok());
+  auto nothing = plc.pick_check(0, 0, 7, 10s);  // registers 4 and 5 name nothing
+  REQUIRE(nothing.ok());
+  fails_with(*nothing, modbus::PickCheckFailure::kNothingPicked);
 
-  SECTION("a PickCheck before any result, or naming nothing, fails with error 8 and keeps no boxes") {
-    auto early = plc.pick_check(1, 0, 5, 10s);
-    REQUIRE(early.ok());
-    CHECK(early->status.error == modbus::ErrorCode::kPickCheckFailed);
-    CHECK(early->status.error_detail == static_cast<std::uint16_t>(modbus::PickCheckFailure::kNoLayout));
-    auto detected = plc.trigger(1, 6, 10s);
-    REQUIRE(detected.ok());
-    auto nothing = plc.pick_check(0, 0, 7, 10s);
-    REQUIRE(nothing.ok());
-    CHECK(nothing->status.error == modbus::ErrorCode::kPickCheckFailed);
-    CHECK(nothing->status.error_detail ==
-          static_cast<std::uint16_t>(modbus::PickCheckFailure::kNothingPicked));
-    CHECK(nothing->result.record.status == modbus::ResultStatus::kFailed);
-    CHECK(nothing->result.record.boxes.empty());
-  }
-
-  SECTION("pick, check, pick, check") {
-    auto detected = plc.trigger(1, 10, 10s);
-    REQUIRE(detected.ok());
-    const modbus::ResultRecord& r0 = detected->result.record;
-    REQUIRE(r0.boxes.size() == d0.boxes.size());
-    CHECK_FALSE(r0.check.has_value());  // 135 = 0 on a detection's result
-
-    auto checked = plc.pick_check(0, 1, 11, 10s);  // the first group
+  auto detected = plc.trigger(1, 10, 10s);
+  REQUIRE(detected.ok());
+  const modbus::ResultRecord r0 = detected->result.record;
+  REQUIRE(r0.boxes.size() == n);
+  CHECK_FALSE(r0.check.has_value());  // 135 = 0 on a detection's result
+  for (std::size_t k = 1; k <= n; ++k) {
+    auto checked = plc.pick_check(0, 1, static_cast<std::uint16_t>(10 + k), 10s);  // the first group
     REQUIRE(checked.ok());
     REQUIRE(checked->result.ids_agree());
-    const modbus::ResultRecord& r1 = checked->result.record;
+    const modbus::ResultRecord& r = checked->result.record;
+    CAPTURE(k, service.latest()->check->message);
     CHECK(checked->status.error == modbus::ErrorCode::kNone);
-    CHECK(r1.request_id == 11);
-    CHECK(r1.recipe == 1);
-    REQUIRE(r1.check.has_value());
-    CHECK(r1.check->result == modbus::CheckResult::kPickOk);
-    CHECK(r1.check->boxes_gone == 1);
-    CHECK(r1.check->boxes_moved == 0);
-    CHECK(r1.boxes.size() == d0.boxes.size() - 1);
-    CHECK(r1.picking);
-    CHECK(r1.groups.size() == d1.groups.size());
-    const auto snap1 = service.latest();
-    REQUIRE(snap1 != nullptr);
-    REQUIRE(snap1->check.has_value());
-    CHECK(snap1->check->verdict == PickVerdict::kPickOk);
-
-    auto dragged_check = plc.pick_check(0, 1, 12, 10s);
-    REQUIRE(dragged_check.ok());
-    const modbus::ResultRecord& r2 = dragged_check->result.record;
-    REQUIRE(r2.check.has_value());
-    CHECK(r2.check->result == modbus::CheckResult::kNeighbourMoved);
-    CHECK(r2.check->boxes_gone == 1);
-    REQUIRE(r2.check->boxes_moved >= 1);
-    REQUIRE(r2.check->moved_slot >= 1);
-    CHECK(r2.check->largest_move_m == Approx(0.020).margin(0.006));
-    CHECK(r2.boxes.size() == d0.boxes.size() - 2);
-    // The moved box's slot holds its new pose: where the robot left it, within a few millimetres.
-    const modbus::BoxRecord& moved = r2.boxes[r2.check->moved_slot - 1u];
-    const Eigen::Vector2d truth = s2.boxes[dragged].center;
-    CAPTURE(moved.x_m, moved.y_m, truth.x(), truth.y());
-    CHECK((Eigen::Vector2d(moved.x_m, moved.y_m) - truth).norm() < 0.006);
+    CHECK(r.request_id == 10 + k);
+    CHECK(r.recipe == 1);
+    REQUIRE(r.check.has_value());
+    CHECK(r.check->result == (verdicts[k - 1] == PickVerdict::kNeighbourMoved
+                                  ? modbus::CheckResult::kNeighbourMoved
+                                  : modbus::CheckResult::kPickOk));
+    CHECK(r.check->boxes_gone == 1);
+    CHECK(r.boxes.size() == n - k);
+    CHECK(r.picking == (k < n));  // pick data while boxes are left
+    if (k == 2) {                 // the dragged box's slot holds where the robot left it
+      REQUIRE(r.check->moved_slot >= 1);
+      CHECK(r.check->largest_move_m == Approx(0.020).margin(0.006));
+      const modbus::BoxRecord& moved = r.boxes[r.check->moved_slot - 1u];
+      CHECK((Eigen::Vector2d(moved.x_m, moved.y_m) - s.boxes[dragged].center).norm() < 0.006);
+    }
+    if (k == n) {  // the last box gone: no boxes, "layer picked"
+      CHECK(r.status == modbus::ResultStatus::kNoBoxes);
+      CHECK(r.detail == modbus::ResultDetail::kLayerPicked);
+      CHECK(checked->status.error_detail == static_cast<std::uint16_t>(modbus::ResultDetail::kLayerPicked));
+    }
   }
+  // A trigger now finds the level below, one carton height lower.
+  auto next_level = plc.trigger(1, 30, 10s);
+  REQUIRE(next_level.ok());
+  CHECK(next_level->result.record.status == modbus::ResultStatus::kOk);
+  CHECK_FALSE(next_level->result.record.boxes.empty());
+  CHECK(r0.layer_z_m - next_level->result.record.layer_z_m == Approx(0.25).margin(0.02));
   service.stop();
 }
