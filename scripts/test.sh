@@ -106,6 +106,10 @@ stage_asan() {
 tsan_targets=(palletd palletd_daemon_tests palletd_service_tests palletd_modbus_tests
               palletd_modbus_test_server palletd_drivers_tests palletd_drivers_aravis_tests
               palletd_drivers_cloud_tests palletd_drivers_openni2_tests palletd_drivers_openni2_pairing_tests)
+# Left out under TSan: the palletctl cases (not built here), and the whole-layer pick sequence
+# (about 50 s under a sanitizer; its threads do what a trigger does, which the other service and
+# daemon cases run here; it runs in the release and asan stages).
+tsan_exclude='palletctl (grab|record)|pick check over Modbus'
 tsan_tests='^(palletd_daemon_tests|palletd_service_tests|palletd_modbus_tests|palletd_drivers_tests|palletd_drivers_aravis_tests|palletd_drivers_cloud_tests|palletd_drivers_openni2_tests|palletd_drivers_openni2_pairing_tests):|^palletd_modbus_(pymodbus|npm)_handshake$'
 
 stage_tsan() {
@@ -115,7 +119,7 @@ stage_tsan() {
   npm_deps "$build_dir"
   (
     source tests/sanitizers/env.sh
-    ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -R "$tsan_tests" -E 'palletctl (grab|record)' \
+    ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -R "$tsan_tests" -E "$tsan_exclude" \
       ${CTEST_ARGS:-}
   )
 }
