@@ -1,5 +1,6 @@
 // after_pick(): the last result brought up to date by a pick check (pick_check.hpp).
 #include <algorithm>
+#include <vector>
 
 #include "palletd/detection/pick_check.hpp"
 #include "palletd/detection/picking.hpp"
@@ -12,13 +13,18 @@ Detection after_pick(const Detection& last, const PickCheck& check, const Frame&
   Detection out = last;
   out.boxes.clear();
   out.groups.clear();
+  // The boxes left in the last pick order (an index sort: the boxes themselves are not moved).
+  std::vector<const BoxCheck*> left;
   for (const BoxCheck& c : check.boxes)
-    if (c.present) out.boxes.push_back(c.now);
-  std::stable_sort(out.boxes.begin(), out.boxes.end(),
-                   [](const DetectedBox& a, const DetectedBox& b) { return a.pick_index < b.pick_index; });
-  for (std::size_t i = 0; i < out.boxes.size(); ++i) {
-    out.boxes[i].pick_index = static_cast<int>(i);
-    out.boxes[i].pick.reset();
+    if (c.present) left.push_back(&c);
+  std::stable_sort(left.begin(), left.end(), [&](const BoxCheck* a, const BoxCheck* b) {
+    return last.boxes[static_cast<std::size_t>(a->box)].pick_index <
+           last.boxes[static_cast<std::size_t>(b->box)].pick_index;
+  });
+  for (const BoxCheck* c : left) {
+    DetectedBox& box = out.boxes.emplace_back(c->now);
+    box.pick_index = static_cast<int>(out.boxes.size()) - 1;
+    box.pick.reset();
   }
   out.timing_ms = check.timing_ms;
   out.message = std::string("after a pick (") + to_string(check.verdict) + "): " + check.message;
