@@ -1,9 +1,8 @@
 // The overlay PNG: the region of interest's edges drawn where the region projects.
-#include <catch2/catch.hpp>
-
 #include <algorithm>
 #include <cmath>
 
+#include <catch2/catch.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -19,6 +18,40 @@ double segment_distance(const Eigen::Vector2d& q, const Eigen::Vector2d& a, cons
   const Eigen::Vector2d ab = b - a;
   const double t = std::clamp((q - a).dot(ab) / std::max(ab.squaredNorm(), 1e-12), 0.0, 1.0);
   return (a + t * ab - q).norm();
+}
+
+/// A detection whose layer lies 1.5 m in front of the camera, facing it (no boxes yet).
+Detection facing_layer() {
+  Detection detection;
+  detection.status = DetectionStatus::kOk;
+  detection.layer.T_camera_layer = Eigen::Isometry3d::Identity();
+  detection.layer.T_camera_layer.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  detection.layer.T_camera_layer.translation() = Eigen::Vector3d(0.0, 0.0, 1.5);
+  return detection;
+}
+
+/// Box i of three 0.3 x 0.2 m boxes side by side on that layer.
+DetectedBox box_in_row(const Detection& detection, int i) {
+  DetectedBox b;
+  b.in_layer.center = Eigen::Vector2d(-0.35 + 0.35 * i, 0.0);
+  b.in_layer.long_m = 0.3;
+  b.in_layer.short_m = 0.2;
+  b.center = detection.layer.T_camera_layer * Eigen::Vector3d(b.in_layer.center.x(), 0.0, 0.0);
+  b.pick_index = i;
+  return b;
+}
+
+/// The brightest pixel within 2 px of where layer x `x_m` projects on the middle row (a 2 px
+/// line may sit a pixel off the projection).
+cv::Vec3b colour_near(const cv::Mat& image, const Intrinsics& k, double x_m) {
+  const int u = static_cast<int>(std::lround(k.fx * x_m / 1.5 + k.cx));
+  const int v = static_cast<int>(std::lround(k.cy));
+  cv::Vec3b best(0, 0, 0);
+  for (int du = -2; du <= 2; ++du) {
+    const cv::Vec3b c = image.at<cv::Vec3b>(v, u + du);
+    if (c[0] + c[1] + c[2] > best[0] + best[1] + best[2]) best = c;
+  }
+  return best;
 }
 
 }  // namespace
@@ -66,88 +99,54 @@ TEST_CASE("overlay: the region of interest's edges are drawn where the region pr
   CHECK(near_edge == changed);
 }
 
-TEST_CASE("overlay: with a gripper, pickable boxes green, boxes waiting for a neighbour orange, blocked red") {
+TEST_CASE(
+    "overlay: with a gripper, pickable boxes green, boxes waiting for a neighbour orange, blocked red") {
   auto frame = read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/22_block_600x400_xtion");
   REQUIRE(frame);
-  Detection detection;
-  detection.status = DetectionStatus::kOk;
-  // A layer frame 1.5 m in front of the camera, facing it; three 0.3 x 0.2 m boxes side by side.
-  detection.layer.T_camera_layer = Eigen::Isometry3d::Identity();
-  detection.layer.T_camera_layer.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
-  detection.layer.T_camera_layer.translation() = Eigen::Vector3d(0.0, 0.0, 1.5);
+  Detection detection = facing_layer();
   const PickBlock blocks[3] = {PickBlock::kNone, PickBlock::kNeighbour, PickBlock::kHigherLevel};
   for (int i = 0; i < 3; ++i) {
-    DetectedBox& b = detection.boxes.emplace_back();
-    b.in_layer.center = Eigen::Vector2d(-0.35 + 0.35 * i, 0.0);
-    b.in_layer.long_m = 0.3;
-    b.in_layer.short_m = 0.2;
-    b.center = detection.layer.T_camera_layer * Eigen::Vector3d(b.in_layer.center.x(), 0.0, 0.0);
-    b.pick_index = i;
+    DetectedBox& b = detection.boxes.emplace_back(box_in_row(detection, i));
     b.pick = BoxPick{i == 0, blocks[i], TcpPose{}};
   }
   const cv::Mat image = cv::imdecode(render_overlay_png(*frame, detection), cv::IMREAD_COLOR);
   REQUIRE_FALSE(image.empty());
   // Each box's left edge, in the middle of its height: the outline's colour (BGR).
-  const Intrinsics& k = frame->intrinsics;
   auto colour_at_left_edge = [&](int i) {
-    const double x_m = -0.35 + 0.35 * i - 0.15;
-    const int u = static_cast<int>(std::lround(k.fx * x_m / 1.5 + k.cx));
-    const int v = static_cast<int>(std::lround(k.cy));
-    cv::Vec3b best(0, 0, 0);
-    for (int du = -2; du <= 2; ++du) {  // the 2 px line may sit a pixel off the projection
-      const cv::Vec3b c = image.at<cv::Vec3b>(v, u + du);
-      if (c[0] + c[1] + c[2] > best[0] + best[1] + best[2]) best = c;
-    }
-    return best;
+    return colour_near(image, frame->intrinsics, -0.35 + 0.35 * i - 0.15);
   };
-  const cv::Vec3b pickable = colour_at_left_edge(0), waiting = colour_at_left_edge(1), blocked = colour_at_left_edge(2);
+  const cv::Vec3b pickable = colour_at_left_edge(0), waiting = colour_at_left_edge(1),
+                  blocked = colour_at_left_edge(2);
   CAPTURE(pickable, waiting, blocked);
   CHECK(pickable[1] > 150);  // green
   CHECK(pickable[2] < 80);
-  CHECK(waiting[2] > 200);   // orange: red and some green, no blue
+  CHECK(waiting[2] > 200);  // orange: red and some green, no blue
   CHECK(waiting[1] > 100);
   CHECK(waiting[0] < 80);
-  CHECK(blocked[2] > 200);   // red
+  CHECK(blocked[2] > 200);  // red
   CHECK(blocked[1] < 80);
 }
 
 TEST_CASE("overlay: a pick check draws the picked box grey, a box gone too red, a moved box cyan") {
   auto frame = read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/22_block_600x400_xtion");
   REQUIRE(frame);
-  Detection detection;
-  detection.status = DetectionStatus::kOk;
-  detection.layer.T_camera_layer = Eigen::Isometry3d::Identity();
-  detection.layer.T_camera_layer.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
-  detection.layer.T_camera_layer.translation() = Eigen::Vector3d(0.0, 0.0, 1.5);
+  Detection detection = facing_layer();
   PickCheck check;
   check.verdict = PickVerdict::kExtraBoxGone;
   for (int i = 0; i < 3; ++i) {
     BoxCheck& c = check.boxes.emplace_back();
     c.box = i;
-    c.now.in_layer.center = Eigen::Vector2d(-0.35 + 0.35 * i, 0.0);
-    c.now.in_layer.long_m = 0.3;
-    c.now.in_layer.short_m = 0.2;
-    c.now.center = detection.layer.T_camera_layer * Eigen::Vector3d(c.now.in_layer.center.x(), 0.0, 0.0);
+    c.now = box_in_row(detection, i);
     c.picked = i == 1;
     c.present = i == 0;
     c.moved = i == 0;
     c.shift_mm = 21.0;
   }
   detection.boxes.push_back(check.boxes[0].now);  // the one left, at its new pose
-  const cv::Mat image =
-      cv::imdecode(render_overlay_png(*frame, detection, &check), cv::IMREAD_COLOR);
+  const cv::Mat image = cv::imdecode(render_overlay_png(*frame, detection, &check), cv::IMREAD_COLOR);
   REQUIRE_FALSE(image.empty());
   const Intrinsics& k = frame->intrinsics;
-  auto pixel = [&](double x_m) {
-    const int u = static_cast<int>(std::lround(k.fx * x_m / 1.5 + k.cx));
-    const int v = static_cast<int>(std::lround(k.cy));
-    cv::Vec3b best(0, 0, 0);
-    for (int du = -2; du <= 2; ++du) {
-      const cv::Vec3b c = image.at<cv::Vec3b>(v, u + du);
-      if (c[0] + c[1] + c[2] > best[0] + best[1] + best[2]) best = c;
-    }
-    return best;
-  };
+  auto pixel = [&](double x_m) { return colour_near(image, k, x_m); };
   const cv::Vec3b moved = pixel(-0.35 - 0.15), taken = pixel(0.0), extra = pixel(0.35);
   CAPTURE(moved, taken, extra);
   CHECK(moved[0] > 200);  // cyan outline
