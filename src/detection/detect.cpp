@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "frame_problem.hpp"
+#include "palletd/detection/confidence.hpp"
 #include "level_checks.hpp"
 #include "palletd/detection/picking.hpp"
 #include "poses.hpp"
@@ -74,6 +75,23 @@ std::pair<std::string, AmbiguityKind> ambiguity_reason(const LayoutResult& layou
     return {"the search ended at its budget before it could rule out other arrangements",
             AmbiguityKind::kSearchBudget};
   return {"part of the layer is not explained by the boxes found", AmbiguityKind::kUnexplainedArea};
+}
+
+/// The frame's share of each box's score terms, then the calibrated confidences.
+void score_boxes(const LayoutResult& layout, Detection& out) {
+  std::vector<int> formats;
+  for (const DetectedBox& b : out.boxes) formats.push_back(b.format);
+  std::sort(formats.begin(), formats.end());
+  const auto layout_formats = static_cast<int>(std::unique(formats.begin(), formats.end()) - formats.begin());
+  for (DetectedBox& b : out.boxes) {
+    b.score_terms.pitch_mm = 1e3 * layout.pixel_pitch_m;
+    b.score_terms.rim_share = layout.rim_share;
+    b.score_terms.layout_formats = layout_formats;
+    b.score_terms.layout_ambiguous = out.ambiguous;
+    b.score_terms.outline_unobserved = out.outline_unobserved;
+    b.score = box_confidence(b.score_terms);
+  }
+  out.layout_confidence = layout_confidence(out);
 }
 
 }  // namespace
@@ -176,6 +194,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.boxes = to_detected_boxes(layout.boxes, out.layer.T_camera_layer,
                                 frame.T_base_camera, params.pick_order);
   layer_height(layer_z_m, formats, params.pallet, out);
+  score_boxes(layout, out);  // Stage 8a: each box's confidence, then the layout's.
   if (params.gripper) {  // Stage 8b: what the gripper can take now, and in which order.
     t0 = Clock::now();
     const PickSurroundings surroundings{out.layer.T_camera_layer,

@@ -154,17 +154,25 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   const InteriorSeams& seams = layout.interior_seams;
   if (layout.boxes.size() < kMinSheetBoxes || seams.length_m < min_short_m(formats)) return std::nullopt;
   if (seams.seen_share() >= kSeamlessShare) return std::nullopt;
-  // A sheet lies over a whole layer: one piece, no holes, a rectangle.
-  if (layer.polygons.size() != 1 || !layer.polygons.front().holes.empty()) return std::nullopt;
-  const PolygonWithHoles& p = layer.polygons.front();
-  const cv::RotatedRect r = min_area_rect(p.outer);
-  const double rect_m2 = static_cast<double>(r.size.area()) * 1e-6;
-  if (rect_m2 <= 0.0 || area(p) < kRectangleFill * rect_m2) return std::nullopt;
   std::ostringstream share;
   share.precision(2);
   share << seams.seen_share();
   const bool resolves_seams = layout.pixel_pitch_m > 0.0 && layout.pixel_pitch_m <= kResolvableSeam_m &&
                               layout.rim_share >= kMixingRimShare;
+  // A sheet lies over a whole layer: one piece, no holes, a rectangle. On any other shape,
+  // seamless boxes where this camera shows seams are named nothing but stay in doubt: a sheet
+  // with a torn corner, a hole where the depth drops out or a curled edge is still a sheet the
+  // gripper would take for cartons. Where it cannot show seams, such a shape is cartons.
+  const bool one_piece = layer.polygons.size() == 1 && layer.polygons.front().holes.empty();
+  const double rect_m2 =
+      one_piece ? static_cast<double>(min_area_rect(layer.polygons.front().outer).size.area()) * 1e-6 : 0.0;
+  if (!one_piece || rect_m2 <= 0.0 || area(layer.polygons.front()) < kRectangleFill * rect_m2) {
+    if (!resolves_seams) return std::nullopt;
+    return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
+                                                  " of their shared sides) where this camera shows seams, on "
+                                                  "a layer that is not one plain rectangle: a slip sheet "
+                                                  "cannot be ruled out"};
+  }
   if (resolves_seams) {
     return LevelVerdict{DetectionStatus::kSlipSheet,
                         "a sheet covers the layer: one flat rectangle, seams seen along " + share.str() +

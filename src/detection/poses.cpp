@@ -85,6 +85,15 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<LayoutBox>& boxes,
     d.format = b.format;
     d.score = b.score;
     d.partly_unseen = b.partly_unseen;
+    ScoreTerms& t = d.score_terms;
+    t.support = b.score;
+    t.inside = b.evidence.inside;
+    t.edge_seams = b.evidence.edge_seams;
+    t.interior_seam = b.evidence.interior_seam;
+    t.position_sigma_mm = b.evidence.position_sigma_m < 0 ? -1.0 : 1e3 * b.evidence.position_sigma_m;
+    t.refine_shift_mm = 1e3 * b.evidence.refine_shift_m;
+    t.partly_unseen = b.partly_unseen;
+    t.contested = b.evidence.contested;
     place_from_layer(d, T_camera_layer, T_base_camera);
     out.push_back(std::move(d));
   }

@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "detect_common.hpp"
 #include "palletd/detection/detection.hpp"
+#include "palletd/results/confidence_eval.hpp"
 #include "palletd/results/evaluation.hpp"
 #include "palletd/frames/frame_io.hpp"
 #include "palletd/detection/layout.hpp"
@@ -130,6 +131,12 @@ int truth_outline_tied(const Truth& truth, const std::vector<BoxFormat>& formats
   return 0;
 }
 
+nlohmann::json boxes_json(const std::vector<BoxEval>& boxes) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const BoxEval& b : boxes) out.push_back({{"score", b.score}, {"right", b.right}, {"features", b.features}});
+  return out;
+}
+
 nlohmann::json to_json(const FrameEval& f) {
   return {{"frame", f.frame},
           {"status", f.status},
@@ -145,7 +152,34 @@ nlohmann::json to_json(const FrameEval& f) {
           {"exact", f.exact},
           {"unflagged_wrong", f.unflagged_wrong},
           {"outline_tied", f.outline_tied},
-          {"runtime_ms", f.runtime_ms}};
+          {"runtime_ms", f.runtime_ms},
+          {"layout_confidence", f.layout_confidence},
+          {"outline_unobserved", f.outline_unobserved},
+          {"boxes", boxes_json(f.boxes)}};
+}
+
+nlohmann::json to_json(const ScoreReport& r) {
+  nlohmann::json bins = nlohmann::json::array();
+  for (const ReliabilityBin& b : r.bins)
+    bins.push_back({{"lo", b.lo}, {"hi", b.hi}, {"n", b.n}, {"mean_score", b.mean_score}, {"right_share", b.right_share}});
+  nlohmann::json deciles = nlohmann::json::array();
+  for (const ReliabilityBin& b : r.deciles)
+    deciles.push_back({{"lo", b.lo}, {"hi", b.hi}, {"n", b.n}, {"mean_score", b.mean_score}, {"right_share", b.right_share}});
+  return {{"items", r.items}, {"right", r.right}, {"auc", r.auc}, {"max_bin_gap", r.max_bin_gap},
+          {"max_decile_gap", r.max_decile_gap}, {"deciles", std::move(deciles)},
+          {"high", r.high}, {"high_right", r.high_right}, {"bins", std::move(bins)}};
+}
+
+void print_score_report(const char* what, const ScoreReport& r) {
+  std::printf("%s %zu (right %zu): AUC %.4f | scored >= 0.9: %zu, right %zu (%.2f %%) | largest gap: bin %.3f, "
+              "decile %.3f\n",
+              what, r.items, r.right, r.auc, r.high, r.high_right,
+              r.high > 0 ? 100.0 * static_cast<double>(r.high_right) / static_cast<double>(r.high) : 0.0, r.max_bin_gap,
+              r.max_decile_gap);
+  std::printf("  score bin   n     mean   right\n");
+  for (const ReliabilityBin& b : r.bins) {
+    if (b.n > 0) std::printf("  %.1f-%.1f %5zu   %.3f   %.3f\n", b.lo, b.hi, b.n, b.mean_score, b.right_share);
+  }
 }
 
 nlohmann::json to_json(const EvalSummary& s) {
@@ -234,8 +268,12 @@ int run_eval(const EvalArgs& a) {
     results.push_back(std::move(e));
   }
   const EvalSummary s = summarize(results);
+  const ConfidenceReport confidence = confidence_report(results);
   if (a.json) {
-    std::printf("%s\n", nlohmann::json{{"summary", to_json(s)}}.dump().c_str());
+    nlohmann::json summary = to_json(s);
+    summary["box_confidence"] = to_json(confidence.boxes);
+    summary["layout_confidence"] = to_json(confidence.layouts);
+    std::printf("%s\n", nlohmann::json{{"summary", std::move(summary)}}.dump().c_str());
   } else {
     std::printf("\nframes %zu (ok %zu, ambiguous %zu) | exact layouts %zu (%.1f %%) | precision %.4f recall %.4f\n",
                 s.frames, s.ok_frames, s.ambiguous_frames, s.exact_frames, 100.0 * s.exact_rate, s.precision, s.recall);
@@ -249,6 +287,8 @@ int run_eval(const EvalArgs& a) {
                 s.position_median_mm, s.position_p95_mm, s.position_max_mm, s.yaw_median_deg, s.yaw_p95_deg);
     std::printf("pairwise centroid-distance error (paper metric) mean %.2f mm | runtime median %.1f ms, p95 %.1f ms\n",
                 s.pairwise_mean_mm, s.runtime_median_ms, s.runtime_p95_ms);
+    print_score_report("box confidence: boxes", confidence.boxes);
+    print_score_report("layout confidence: layouts", confidence.layouts);
   }
   return results.empty() ? 1 : 0;
 }

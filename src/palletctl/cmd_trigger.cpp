@@ -52,9 +52,9 @@ const char* status_word(modbus::ResultStatus s) {
 void print_result(const modbus::PlcClient::TriggerResult& r) {
   const modbus::ResultRecord& rec = r.result.record;
   std::printf("result %u (request %u, recipe %u): %s, %u box(es) found, %zu reported, coverage %.3f, "
-              "layer z %.1f mm, poses in the %s frame, handshake %.0f ms\n",
+              "layout confidence %.3f, layer z %.1f mm, poses in the %s frame, handshake %.0f ms\n",
               r.result.result_id, rec.request_id, rec.recipe, status_word(rec.status), rec.boxes_found,
-              rec.boxes.size(), rec.coverage, rec.layer_z_m * 1000.0,
+              rec.boxes.size(), rec.coverage, rec.layout_confidence, rec.layer_z_m * 1000.0,
               r.status.poses_in_camera_frame ? "camera" : "base", r.handshake_ms);
   if (rec.status == modbus::ResultStatus::kFailed) {
     std::printf("  error code %u, detail %u\n", static_cast<unsigned>(r.status.error), r.status.error_detail);

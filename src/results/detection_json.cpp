@@ -38,6 +38,23 @@ Json groups_json(const std::vector<PickGroup>& groups) {
   return out;
 }
 
+/// What a box's confidence is computed from (detection.hpp ScoreTerms).
+Json score_terms_json(const ScoreTerms& t) {
+  return {{"support", t.support},
+          {"inside", t.inside},
+          {"edge_seams", t.edge_seams},
+          {"interior_seam", t.interior_seam},
+          {"position_sigma_mm", t.position_sigma_mm},
+          {"refine_shift_mm", t.refine_shift_mm},
+          {"pitch_mm", t.pitch_mm},
+          {"rim_share", t.rim_share},
+          {"layout_formats", t.layout_formats},
+          {"partly_unseen", t.partly_unseen},
+          {"contested", t.contested},
+          {"layout_ambiguous", t.layout_ambiguous},
+          {"outline_unobserved", t.outline_unobserved}};
+}
+
 }  // namespace
 
 std::string detection_to_json_line(const Detection& detection, const std::string& frame_stem) {
@@ -65,6 +82,7 @@ std::string detection_to_json_line(const Detection& detection, const std::string
   j["clipped_by_image_border"] = detection.clipped_by_image_border;
   j["outline_unobserved"] = detection.outline_unobserved;
   j["layers_remaining"] = detection.layers_remaining ? Json(*detection.layers_remaining) : Json(nullptr);
+  j["layout_confidence"] = detection.layout_confidence;
   Json boxes = Json::array();
   for (const DetectedBox& b : detection.boxes) {
     Json box;
@@ -74,6 +92,7 @@ std::string detection_to_json_line(const Detection& detection, const std::string
     box["size"] = {b.long_m, b.short_m};
     box["format"] = b.format;
     box["score"] = b.score;
+    box["score_terms"] = score_terms_json(b.score_terms);
     box["partly_unseen"] = b.partly_unseen;
     if (b.base_position) {
       Json base;

@@ -117,6 +117,9 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
   const std::vector<int> match = assign_min_cost(cost);
   std::vector<std::pair<std::size_t, std::size_t>> pairs;
   bool within = true;
+  e.layout_confidence = detection.layout_confidence;
+  e.outline_unobserved = detection.outline_unobserved;
+  for (const DetectedBox& db : detection.boxes) e.boxes.push_back({db.score, false, box_features(db.score_terms)});
   for (std::size_t t = 0; t < match.size(); ++t) {
     if (match[t] < 0 || cost[t][static_cast<std::size_t>(match[t])] >= big) continue;
     const auto d = static_cast<std::size_t>(match[t]);
@@ -127,9 +130,12 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
     const double yaw_deg = axis_angle_deg(tb.long_axis, db.long_axis, tb.normal);
     e.position_errors_mm.push_back(pos_mm);
     e.yaw_errors_deg.push_back(yaw_deg);
-    if (pos_mm > options.exact_position_mm || yaw_deg > options.exact_yaw_deg) within = false;
+    const bool close = pos_mm <= options.exact_position_mm && yaw_deg <= options.exact_yaw_deg;
+    if (!close) within = false;
     const auto f = static_cast<std::size_t>(db.format);
-    if (f < format_names.size() && !format_names[f].empty() && format_names[f] != tb.format) e.formats_right = false;
+    const bool format_right = !(f < format_names.size() && !format_names[f].empty() && format_names[f] != tb.format);
+    if (!format_right) e.formats_right = false;
+    e.boxes[d].right = close && format_right && e.expect == "boxes";
   }
   e.matched = pairs.size();
   double pw_sum = 0.0;

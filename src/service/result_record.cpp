@@ -114,6 +114,7 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
   r.outline_unobserved = detection.outline_unobserved;
   r.layer_z_m = detection.status == DetectionStatus::kOk ? layer_z_m(detection, base_frame) : 0.0;
   r.coverage = detection.coverage;
+  r.layout_confidence = detection.layout_confidence;
   fill_picks(detection, r);
   auto total = detection.timing_ms.find("total");
   r.processing_ms = total != detection.timing_ms.end() ? total->second : 0.0;

@@ -233,6 +233,8 @@ Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult
   check_rows(image, rec, result);
   result.push_back(row(image, modbus::kResultIdCopy, 1, "result id copy", std::to_string(res.result_id_copy),
                        res.result_id_copy == res.result_id ? "matches 200" : "differs from 200: torn read"));
+  result.push_back(row(image, modbus::kRegLayoutConfidence, 1, "layout confidence",
+                       fixed(rec.layout_confidence, 3), "estimated probability that every box is right"));
   return result;
 }
 

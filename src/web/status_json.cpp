@@ -208,7 +208,8 @@ Json result_json(const ResultSnapshot& snapshot, const std::string& stem, const 
 
   // The rows of the page's box table: pose in the base frame when known, else the camera frame.
   Json table = Json::array();
-  for (const auto& b : snapshot.detection.boxes) {
+  for (std::size_t i = 0; i < snapshot.detection.boxes.size(); ++i) {
+    const DetectedBox& b = snapshot.detection.boxes[i];
     Json r;
     r["pick_index"] = b.pick_index;
     const bool in_base = b.base_position.has_value();
@@ -227,6 +228,7 @@ Json result_json(const ResultSnapshot& snapshot, const std::string& stem, const 
                        static_cast<std::size_t>(b.format) < recipe->formats.size();
     r["format_name"] = named ? recipe->formats[static_cast<std::size_t>(b.format)].name : "";
     r["score"] = b.score;
+    r["score_terms"] = j["boxes"][i]["score_terms"];  // shown on hover
     // With a gripper: whether the robot can take it now, else why not ("" without a gripper).
     r["pickable"] = b.pick ? Json(b.pick->pickable) : Json(nullptr);
     r["blocked_by"] = b.pick ? to_string(b.pick->blocked_by) : "";

@@ -122,6 +122,28 @@ TEST_CASE("a slip sheet is never an unflagged layout, at a fine pitch it is a sl
   }
 }
 
+TEST_CASE("a sheet with a hole where the depth drops out is flagged, never an unflagged layout", "[cell][sheet]") {
+  sim::SimulatedFrame f = render_family(sim::SceneFamily::kSlipSheet, "helios2", 5);
+  // The layer's middle pixel and a 24 x 24 pixel patch around it without depth (a shiny label).
+  const Detection whole = detect(f.frame, formats_of(f), DetectionParams{});
+  REQUIRE(whole.status == DetectionStatus::kSlipSheet);
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2f& p : whole.layer.points_2d) mean += p.cast<double>();
+  mean /= static_cast<double>(whole.layer.points_2d.size());
+  const Eigen::Vector3d c = whole.layer.T_camera_layer * Eigen::Vector3d(mean.x(), mean.y(), 0.0);
+  const Intrinsics& in = f.frame.intrinsics;
+  const auto u0 = static_cast<int>(in.fx * c.x() / c.z() + in.cx);
+  const auto v0 = static_cast<int>(in.fy * c.y() / c.z() + in.cy);
+  for (int v = v0 - 12; v < v0 + 12; ++v)
+    for (int u = u0 - 12; u < u0 + 12; ++u)
+      f.frame.depth[static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) + static_cast<std::size_t>(u)] = 0;
+  const Detection d = detect(f.frame, formats_of(f), DetectionParams{});
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason, d.layer.polygons.size());
+  CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
+  REQUIRE(d.status == DetectionStatus::kOk);  // a hole: no longer the plain rectangle a sheet is named by
+  CHECK(d.ambiguity_reason.find("not one plain rectangle") != std::string::npos);
+}
+
 TEST_CASE("the full layer a sheet would cover shows its seams", "[cell][sheet]") {
   const sim::SimulatedFrame f = render_family(sim::SceneFamily::kIsolated, "helios2", 5);
   const Detection d = detect(f.frame, formats_of(f), DetectionParams{});

@@ -12,15 +12,8 @@ using Catch::Contains;
 
 namespace {
 
-Detection sample_detection() {
-  Detection d;
-  d.status = DetectionStatus::kOk;
-  d.timing_ms = {{"total", 12.5}, {"plane", 3.25}, {"layout", 7.0}};
-  d.plane_camera.normal = Eigen::Vector3d(0.0, 0.0, -1.0);
-  d.plane_camera.d = 1.42;
-  d.layer_area_m2 = 0.66;
-  d.coverage = 0.98;
-  d.ambiguous = true;
+/// A box of format 1 at (0.1, -0.05, 1.42) in the camera frame.
+DetectedBox sample_box() {
   DetectedBox a;
   a.center = Eigen::Vector3d(0.1, -0.05, 1.42);
   a.long_axis = Eigen::Vector3d(1.0, 0.0, 0.0);
@@ -30,14 +23,31 @@ Detection sample_detection() {
   a.format = 1;
   a.score = 0.97;
   a.pick_index = 1;
-  DetectedBox b = a;
+  return a;
+}
+
+Detection sample_detection() {
+  Detection d;
+  d.status = DetectionStatus::kOk;
+  d.timing_ms = {{"total", 12.5}, {"plane", 3.25}, {"layout", 7.0}};
+  d.plane_camera.normal = Eigen::Vector3d(0.0, 0.0, -1.0);
+  d.plane_camera.d = 1.42;
+  d.layer_area_m2 = 0.66;
+  d.coverage = 0.98;
+  d.ambiguous = true;
+  d.layout_confidence = 0.42;
+  d.boxes = {sample_box(), sample_box()};
+  DetectedBox& a = d.boxes[0];
+  a.score_terms.support = 0.91;
+  a.score_terms.position_sigma_mm = 1.25;
+  a.score_terms.contested = true;
+  DetectedBox& b = d.boxes[1];
   b.center.x() = -0.2;
   b.format = 0;
   b.pick_index = 0;
   b.base_position = Eigen::Vector3d(1.0, 2.0, 0.5);
   b.base_yaw_deg = -90.0;
   b.partly_unseen = true;
-  d.boxes = {a, b};
   return d;
 }
 
@@ -71,6 +81,15 @@ TEST_CASE("detection line has the keys of the spec in order") {
   CHECK(j["boxes"][1]["base"]["position"] == nlohmann::ordered_json({1.0, 2.0, 0.5}));
   CHECK(j["boxes"][1]["base"]["yaw_deg"] == -90.0);
   CHECK(j["boxes"][1]["pick_index"] == 0);
+  CHECK(j["layout_confidence"] == 0.42);
+  const auto& terms = j["boxes"][0]["score_terms"];
+  CHECK(terms["support"] == 0.91);
+  CHECK(terms["position_sigma_mm"] == 1.25);
+  CHECK(terms["contested"] == true);
+  CHECK(j["boxes"][1]["score_terms"]["contested"] == false);
+  for (const char* key : {"inside", "edge_seams", "interior_seam", "refine_shift_mm", "pitch_mm", "partly_unseen",
+                          "layout_ambiguous", "outline_unobserved"})
+    CHECK(terms.contains(key));
 }
 
 TEST_CASE("detection line round trip through the parser") {

@@ -280,7 +280,7 @@ RefineInput packed_block_input(const Rect2d& outline, int cols, int rows, const 
       b.long_m = nominal.long_m;
       b.short_m = nominal.short_m;
       b.format = 0;
-      in.found.boxes.push_back({b, 1.0, 0, false});
+      in.found.boxes.push_back({b, 1.0, 0, false, {}});
     }
   }
   return in;

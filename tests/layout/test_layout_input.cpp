@@ -138,7 +138,7 @@ TEST_CASE("per-box scores drop for a box crossed by a seam") {
   REQUIRE(good.status == DetectionStatus::kOk);
   LayoutResult wrong = good;
   wrong.boxes.clear();
-  for (const Box2d& b : truth_boxes(mirror)) wrong.boxes.push_back({b, 0.0, 0, false});
+  for (const Box2d& b : truth_boxes(mirror)) wrong.boxes.push_back({b, 0.0, 0, false, {}});
   LayerResult layer;
   layer.status = DetectionStatus::kOk;
   layer.polygons = outline;

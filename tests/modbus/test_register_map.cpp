@@ -62,6 +62,7 @@ ResultRecord make_result(int boxes) {
   r.outline_unobserved = true;
   r.layer_z_m = -1.2345;
   r.coverage = 0.97;
+  r.layout_confidence = 0.873;
   for (int i = 0; i < boxes; ++i) {
     BoxRecord b;
     b.x_m = 0.1 * i - 1.0;
@@ -77,7 +78,7 @@ ResultRecord make_result(int boxes) {
 }
 }  // namespace
 
-TEST_CASE("a result encodes into 200..530 and decodes back in both word orders",
+TEST_CASE("a result encodes into 200..531 and decodes back in both word orders",
           "[modbus][register_map]") {
   for (const WordOrder order : {WordOrder::kHighWordFirst, WordOrder::kLowWordFirst}) {
     RegisterImage image{};
@@ -90,7 +91,10 @@ TEST_CASE("a result encodes into 200..530 and decodes back in both word orders",
     CHECK(image[kRegBoxesReported] == 32);
     CHECK(image[kRegResultFlags] == (kResAmbiguous | kResLayerClipped | kResOutlineUnobserved));
     CHECK(image[kRegCoverage] == 970);
-    CHECK(image[kResultStart - 1] == 0xABCD);  // outside the block untouched
+    CHECK(image[kRegLayoutConfidence] == 873);
+    CHECK(image[kRegLayoutConfidence + 1] == 0);  // the gap 532..539 reads 0
+    // outside the block untouched
+    CHECK(image[kResultStart - 1] == 0xABCD);
     const DecodedResult out = decode_result(image, order);
     CHECK(out.result_id == 77);
     CHECK(out.result_id_copy == 77);
@@ -101,6 +105,7 @@ TEST_CASE("a result encodes into 200..530 and decodes back in both word orders",
     CHECK_FALSE(out.record.budget_exhausted);
     CHECK(out.record.layer_clipped);
     CHECK(out.record.outline_unobserved);
+    CHECK(out.record.layout_confidence == Approx(0.873).margin(0.0005));
     REQUIRE(out.record.boxes.size() == 32);
     for (std::size_t i = 0; i < 32; ++i) {
       const BoxRecord& a = in.boxes[i];
@@ -355,7 +360,7 @@ TEST_CASE("a result with picks encodes the pick block and decodes back in both w
     CHECK(image[kRegGroupsFound] == 2);
     CHECK(image[kRegGroupsReported] == 2);
     CHECK(image[kRegPickableBoxes] == 3);
-    for (std::uint16_t a = kResultIdCopy + 1; a < kPickStart; ++a) CHECK(image[a] == 0);
+    for (std::uint16_t a = kRegLayoutConfidence + 1; a < kPickStart; ++a) CHECK(image[a] == 0);
     for (std::uint16_t a = kRegPickableBoxes + 1; a < kGroupStart; ++a) CHECK(image[a] == 0);
     // group 1: TCP, box count, first box slot, pick index at 560..569
     const std::uint16_t* g1 = &image[kGroupStart + kGroupStride];
@@ -410,7 +415,7 @@ TEST_CASE("a result without a gripper leaves 540..902 zero except the result ids
   encode_result(plain, 6, WordOrder::kHighWordFirst, image);
   CHECK(image[kRegPickResultId] == 6);
   CHECK(image[kPickIdCopy] == 6);
-  for (std::uint16_t a = kResultIdCopy + 1; a < kPickIdCopy; ++a) {
+  for (std::uint16_t a = kRegLayoutConfidence + 1; a < kPickIdCopy; ++a) {
     if (a == kRegPickResultId) continue;
     INFO("register " << a);
     CHECK(image[a] == 0);

@@ -236,7 +236,12 @@ TEST_CASE("/api/result is the detection line of the spec plus trigger metadata")
     CHECK(row["yaw_deg"].get<double>() == Approx(*box.base_yaw_deg));
     CHECK(row["format_name"] == (box.format == 0 ? "F315" : "F400"));
     CHECK(j["boxes"][i]["base"]["position"][2].get<double>() == Approx(box.base_position->z()));
+    // The score's evidence, shown on hover.
+    CHECK(row["score"].get<double>() == Approx(box.score));
+    CHECK(row["score_terms"]["position_sigma_mm"].get<double>() == Approx(box.score_terms.position_sigma_mm));
+    CHECK(row["score_terms"]["contested"] == box.score_terms.contested);
   }
+  CHECK(j["layout_confidence"].get<double>() == Approx(f.first().detection.layout_confidence));
 }
 
 TEST_CASE("without camera_to_base the box table is in the camera frame and says so") {

@@ -152,7 +152,8 @@ bool solve_paper_component(const PolygonWithHoles& comp, const PolygonWithHoles&
   result.score += ps.score;
   for (const auto& b : ps.boxes) {
     const BoxSupport s = box_support(b, comp, nullptr, ctx.params);
-    result.boxes.push_back({b, s.score, static_cast<int>(ci), false});
+    result.boxes.push_back({b, s.score, static_cast<int>(ci), false, {}});
+    set_support_terms(s, result.boxes.back().evidence);
     covered_m2 += s.inside_area_m2;
   }
   return true;
@@ -301,10 +302,11 @@ bool choose_layout(const PolygonWithHoles& comp, const PolygonWithHoles& comp_ed
 
 /// Keeps the closest different layout of any component as the result's runner-up.
 void record_runner_up(const Candidate& best, const Candidate& other, const std::vector<BoxFormat>& formats,
-                      LayoutResult& result) {
+                      std::size_t ci, LayoutResult& result) {
   const double gap = std::abs(best.score - other.score);
   if (result.runner_up_gap >= 0 && gap >= result.runner_up_gap) return;
   result.runner_up_gap = gap;
+  result.runner_up_component = static_cast<int>(ci);
   result.runner_up.clear();
   for (const auto& b : other.boxes) result.runner_up.push_back(other.frame.to_layer(b, formats));
 }
@@ -333,7 +335,8 @@ bool publish_layout(const ComponentLayout& chosen, double comp_area_m2, std::siz
   for (std::size_t k = 0; k < best.boxes.size(); ++k) {
     const bool partly_unseen = chosen.all_completed || k + chosen.completed >= best.boxes.size();
     result.boxes.push_back({best.frame.to_layer(best.boxes[k], ctx.formats), support[k].score,
-                            static_cast<int>(ci), partly_unseen});
+                            static_cast<int>(ci), partly_unseen, {}});
+    set_support_terms(support[k], result.boxes.back().evidence);
   }
   return true;
 }
@@ -350,7 +353,7 @@ bool solve_best_first_component(const PolygonWithHoles& comp, const PolygonWithH
   if (!choose_layout(comp, comp_edges, ctx, budget, result, frames, cands, chosen, why)) return false;
   result.score += chosen.best.score;
   result.ambiguous = result.ambiguous || chosen.ambiguous;
-  if (chosen.runner_up != nullptr) record_runner_up(chosen.best, *chosen.runner_up, ctx.formats, result);
+  if (chosen.runner_up != nullptr) record_runner_up(chosen.best, *chosen.runner_up, ctx.formats, ci, result);
   return publish_layout(chosen, comp_area_m2, ci, frames, ctx, result, covered_m2, why);
 }
 

@@ -15,6 +15,14 @@ struct BoxSupport {
   double score = 0.0;             ///< 0..1
 };
 
+/// Copies the support terms into a box's evidence.
+inline void set_support_terms(const BoxSupport& s, BoxEvidence& e) {
+  e.inside = s.inside_fraction;
+  e.interior_seam = s.interior_seam;
+  e.edge_seams = s.edge_seam;
+  e.shared_sides = s.shared_edges > 0;
+}
+
 BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component,
                        const SeamEvidence* seams, const LayoutParams& params);
 

@@ -74,6 +74,7 @@ void rescore(const std::vector<ComponentFit>& fits, const LayoutResult& found, d
     const BoxSupport s =
         box_support(out.boxes[bi], cf.frame, cf.polygon, cf.table.empty() ? nullptr : &cf.table, params);
     out.boxes[bi].score = s.score;
+    set_support_terms(s, out.boxes[bi].evidence);
     covered += s.inside_area_m2;
   }
   if (layer_area_m2 > 0) out.coverage = std::min(1.0, covered / layer_area_m2);

@@ -362,6 +362,8 @@ ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWit
     const Eigen::Vector2d shift = fitted[k].center - ev[k].jb.center;
     if (!fitted[k].center.allFinite() || shift.norm() > kMaxShiftShare * box.short_m)
       continue;  // wrong association
+    boxes[idx[k]].evidence.position_sigma_m = fitted[k].sigma_center.maxCoeff();
+    boxes[idx[k]].evidence.refine_shift_m = shift.norm();
     box.center = cf.frame.to_layer(fitted[k].center);
     const Eigen::Vector2d size = 2 * fitted[k].half;
     box.long_m = ev[k].along_x ? size.x() : size.y();

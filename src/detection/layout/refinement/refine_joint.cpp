@@ -153,6 +153,7 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
                 const JointParams& params, int axis) {
   const auto n = static_cast<Eigen::Index>(boxes.size());
   if (n == 0) return;
+  for (JointBox& b : boxes) b.sigma_center[axis] = params.anchor_sigma_m;  // kept if the fit fails
   std::vector<double> robust(sides.size(), 1.0);
   std::vector<bool> held(boxes.size(), false);
   std::vector<double> held_half(boxes.size(), 0.0);
@@ -168,8 +169,9 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
   std::vector<double> c0(boxes.size());
   for (std::size_t i = 0; i < boxes.size(); ++i) c0[i] = boxes[i].center[axis];
   Eigen::VectorXd x(2 * n);
+  Eigen::MatrixXd A;
   for (int round = 0; round < 12; ++round) {
-    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+    A = Eigen::MatrixXd::Zero(2 * n, 2 * n);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(2 * n);
     for (Eigen::Index i = 0; i < n; ++i) {
       const auto ui = static_cast<std::size_t>(i);
@@ -247,6 +249,12 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
     boxes[ui].center[axis] = x(i);
     const double nom = boxes[ui].half_nominal[axis];
     boxes[ui].half[axis] = std::clamp(x(n + i), nom - 0.5 * params.size_tolerance_m, half_upper(nom, params));
+  }
+  // The centres' standard deviations: the diagonal of the inverse normal matrix (sides, contacts
+  // and priors with their sigmas; the Huber weights and held sizes of the last round).
+  const Eigen::MatrixXd cov = A.ldlt().solve(Eigen::MatrixXd::Identity(2 * n, 2 * n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    boxes[static_cast<std::size_t>(i)].sigma_center[axis] = std::sqrt(std::max(0.0, cov(i, i)));
   }
 }
 

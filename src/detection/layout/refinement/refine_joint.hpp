@@ -34,6 +34,8 @@ struct JointBox {
   Eigen::Vector2d center = Eigen::Vector2d::Zero();        ///< [m]
   Eigen::Vector2d half = Eigen::Vector2d::Zero();          ///< half extents along frame x, y [m]
   Eigen::Vector2d half_nominal = Eigen::Vector2d::Zero();  ///< nominal format, same axes [m]
+  /// Standard deviation of the fitted centre along frame x, y (solve_joint's output) [m]
+  Eigen::Vector2d sigma_center = Eigen::Vector2d::Zero();
 };
 
 /// A measured box side: the side of box `box` normal to `axis` (0: frame x) on side `sign`

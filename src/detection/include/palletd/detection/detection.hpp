@@ -68,6 +68,26 @@ struct DetectionParams {
   DepthNoiseModel noise_model;  ///< the camera's depth noise, for the frame's health (`health.noise_model`)
 };
 
+/// The evidence a box's score is computed from (JSON `score_terms`): why a box scores low.
+struct ScoreTerms {
+  /// The search's support: inside x (1 - interior_seam) x (0.5 + 0.5 edge_seams).
+  double support = 0.0;
+  double inside = 0.0;         ///< share of the box's top inside the layer's outline
+  double edge_seams = 1.0;     ///< share of the sides shared with neighbours where a seam shows (1: none shared)
+  double interior_seam = 0.0;  ///< strongest seam line across its top, 0..1 (it may be two boxes)
+  double position_sigma_mm = -1.0;  ///< standard deviation of the fitted position, worse axis; -1 = not fitted
+  double refine_shift_mm = 0.0;     ///< how far the fit moved it from where the search put it
+  double pitch_mm = 0.0;            ///< pixel pitch on the layer
+  /// Mixed pixels along the layer's rim per pixel of outline: a time-of-flight camera shows even
+  /// sub-pixel seams as dips; stereo and structured light (near 0) smooth narrow seams away.
+  double rim_share = 0.0;
+  int layout_formats = 1;           ///< formats the layout uses (a mix is decided by seams alone)
+  bool partly_unseen = false;       ///< completed where the depth ends
+  bool contested = false;           ///< the closest other arrangement has no box here
+  bool layout_ambiguous = false;    ///< the layout is flagged ambiguous
+  bool outline_unobserved = false;  ///< the layer's outline runs along missing depth
+};
+
 /// One detected box, camera frame [m], conventions of shared/spec/detections.md.
 struct DetectedBox {
   Eigen::Vector3d center = Eigen::Vector3d::Zero();     ///< centroid of the top face
@@ -75,7 +95,10 @@ struct DetectedBox {
   Eigen::Vector3d normal = -Eigen::Vector3d::UnitZ();   ///< unit, toward the camera
   double long_m = 0.0, short_m = 0.0;                   ///< size of the top face [m]
   int format = 0;        ///< index into the recipe's formats
-  double score = 0.0;    ///< 0..1
+  /// Confidence 0..1: the estimated probability that the box is right (position within 15 mm,
+  /// yaw within 2 deg, right format), calibrated on generated frames (box_confidence()).
+  double score = 0.0;
+  ScoreTerms score_terms;  ///< what the score is computed from
   int pick_index = 0;
   /// Completed across an outline edge where the depth ends: part of its top was not seen, so its
   /// far side is placed by the format, not measured (LayoutParams::unseen_min_fraction).
@@ -94,6 +117,9 @@ struct Detection {
   Plane plane_camera;
   double layer_area_m2 = 0.0;
   double coverage = 0.0;
+  /// The estimated probability that the whole layout is exact (every box right, none missing or
+  /// extra), from the boxes' confidences and the flags (layout_confidence()); 0 without boxes.
+  double layout_confidence = 0.0;
   bool ambiguous = false;
   bool budget_exhausted = false;
   bool clipped_by_image_border = false;

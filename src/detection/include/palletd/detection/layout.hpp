@@ -217,11 +217,24 @@ struct InteriorSeams {
   [[nodiscard]] double seen_share() const { return length_m > 0.0 ? seen_m / length_m : 0.0; }
 };
 
+/// What a box's support rests on: the outline and seams around it (find_layout, again after
+/// refine_layout) and how well the joint fit placed it (refine_layout).
+struct BoxEvidence {
+  double inside = 0.0;          ///< share of the box's top inside the layer's outline
+  double interior_seam = 0.0;   ///< strongest seam line across its top (it may be two boxes), 0..1
+  double edge_seams = 1.0;      ///< share of the sides it shares with neighbours that show a seam
+  bool shared_sides = false;    ///< it has a neighbour (else edge_seams is 1)
+  double position_sigma_m = -1.0;  ///< standard deviation of the fitted centre, worse axis; -1 = not fitted
+  double refine_shift_m = 0.0;     ///< how far the fit moved it from where the search put it [m]
+  bool contested = false;  ///< the runner-up layout of its component has no box of its size here
+};
+
 /// One box of a layout: where it lies (layer frame) and how well the measurements support it.
 struct LayoutBox : Box2d {
   double score = 0.0;          ///< 0..1
   int component = 0;           ///< index of the component it lies on
   bool partly_unseen = false;  ///< completed across an outline edge where the depth ends
+  BoxEvidence evidence;
 };
 
 /// Result of the layout search for all components of a layer.
@@ -235,6 +248,7 @@ struct LayoutResult {
   double score = 0.0;                ///< sum over components of the search score [m^2]
   double runner_up_gap = -1.0;       ///< score gap to the best different layout [m^2]; -1 = none
   std::vector<Box2d> runner_up;      ///< that layout (diagnostics), empty if none
+  int runner_up_component = -1;      ///< the component it lays out; -1 = none
   /// Boxes completed across outline edges where the depth ends (LayoutParams::unseen_min_fraction).
   std::size_t completed_unseen = 0;
   InteriorSeams interior_seams;  ///< of the boxes returned (solve_layout)

@@ -21,7 +21,10 @@ inline constexpr std::uint16_t kBoxStart = 210;
 inline constexpr std::uint16_t kBoxStride = 10;
 inline constexpr std::uint16_t kMaxBoxes = 32;
 inline constexpr std::uint16_t kResultIdCopy = 530;  ///< copy of register 200
-inline constexpr std::uint16_t kResultCount = kResultIdCopy - kResultStart + 1;  ///< 200..530
+/// Layout confidence 0..1000 (Detection::layout_confidence), written with the result block.
+inline constexpr std::uint16_t kRegLayoutConfidence = 531;
+/// 200..531: the result block and the layout confidence after it (one consistent read each).
+inline constexpr std::uint16_t kResultCount = kRegLayoutConfidence - kResultStart + 1;
 // pick block 540..902, read-only: written with each result (same image update), cleared with it
 inline constexpr std::uint16_t kPickStart = 540;
 inline constexpr std::uint16_t kPickHeaderCount = 10;  ///< 540..549 (545..549 reserved, read 0)
@@ -226,7 +229,7 @@ enum class PickStatus : std::uint16_t {
 enum class WordOrder : std::uint8_t { kHighWordFirst, kLowWordFirst };
 
 /// The whole addressable register space 0..902 (control, status, result extension, connection,
-/// health, result and pick blocks; the gaps 16..99, 154..199, 531..539 and 545..549
+/// health, result and pick blocks; the gaps 16..99, 154..199, 532..539 and 545..549
 /// read 0).
 using RegisterImage = std::array<std::uint16_t, kRegisterCount>;
 
@@ -278,6 +281,7 @@ struct ResultRecord {
   std::optional<int> layers_remaining;                ///< counting the top layer
   double layer_z_m = 0.0;       ///< layer height [m]
   double coverage = 0.0;        ///< 0..1
+  double layout_confidence = 0.0;  ///< 0..1, P(the layout is exact) (register 531)
   double processing_ms = 0.0;   ///< detection wall time [ms] (register 113)
   bool picking = false;         ///< a gripper is configured: the pick fields below are valid
   std::uint16_t groups_found = 0;  ///< may exceed groups.size() if the service truncated
@@ -384,7 +388,7 @@ std::int32_t get_i32(const std::uint16_t* src, WordOrder order);
 // ---- blocks ----
 /// Writes registers 100..129 and 140..155.
 void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& image);
-/// Writes registers 200..530 with `result_id` in 200 and 530 (unused box slots zeroed), the
+/// Writes registers 200..531 with `result_id` in 200 and 530 (unused box slots zeroed), the
 /// result extension 130..139 and the pick block 540..902 (`result_id` in 540 and 902; the rest
 /// zero without `picking` and for a failed result).
 void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "palletd/detection/confidence.hpp"
 #include "palletd/detection/detection.hpp"
 #include "palletd/frames/frame_io.hpp"
 
@@ -12,6 +13,14 @@ namespace palletd {
 struct EvalOptions {
   double exact_position_mm = 15.0;  ///< exact layout: every box within this ...
   double exact_yaw_deg = 2.0;       ///< ... and this
+};
+
+/// One detected box against the truth: whether it is right, and what its confidence rests on.
+struct BoxEval {
+  double score = 0.0;
+  /// Matched to a truth box within the exact tolerances (EvalOptions), with the right format.
+  bool right = false;
+  std::array<double, kBoxFeatures> features{};  ///< box_features() of its score terms
 };
 
 /// One frame's detection against its truth.
@@ -31,6 +40,9 @@ struct FrameEval {
   /// Not exact, yet an ok status not flagged ambiguous: a wrong answer the PLC would act on.
   bool unflagged_wrong = false;
   double runtime_ms = 0.0;
+  std::vector<BoxEval> boxes;       ///< per detected box, in the detection's order
+  double layout_confidence = 0.0;   ///< Detection::layout_confidence
+  bool outline_unobserved = false;  ///< Detection::outline_unobserved
   /// Whether the truth's own outline determines its layout: 0 = yes (unambiguous: the
   /// detection must be exact), 1 = no (another layout fits the outline as well: exact or
   /// flagged ambiguous is right), -1 = not checked.
