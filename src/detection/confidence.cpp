@@ -17,10 +17,10 @@ namespace {
 // from `palletctl eval DIR --json` on six generated sets made for the fit (4912 boxes of 890
 // layouts; docs/benchmarks.md, "Confidence", has the commands and the check on held-out sets).
 constexpr std::array<double, kBoxFeatures> kBoxWeights = {
-    6.00589,   0.248309, -0.0559782, 1.17629,  0.66028,   -2.34906,  -0.437774, 0.474088,
-    -0.023239, 0.232919, -4.78389,   0.837951, 0.0242975, 0.0501068, 1.02986};
-constexpr std::array<double, kLayoutFeatures> kLayoutWeights = {1.38727, 0.227686, 0.669724, -1.1509,
-                                                                0.118831};
+    6.13944,    0.273093, -0.0502455, 1.20002,  0.649625, -2.37203,   -0.408383, 0.446302,
+    -0.0248756, 0.474499, -4.87804,   0.551759, 0.079594, -0.0391386, 1.10062};
+constexpr std::array<double, kLayoutFeatures> kLayoutWeights = {1.36855, 0.203818, 0.714277, -1.201,
+                                                                0.285784};
 
 template <std::size_t N>
 double dot(const std::array<double, N>& w, const std::array<double, N>& f) {

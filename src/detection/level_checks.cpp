@@ -28,6 +28,8 @@ constexpr double kRectangleFill = 0.95;
 /// A sheet covers a whole layer: a tiling of at least this many boxes (a stepped remainder of one
 /// to three cartons is no sheet).
 constexpr std::size_t kMinSheetBoxes = 4;
+/// A seam line across a box (or between two boxes) at least this strong tells one box from two.
+constexpr double kSplitSeam = 0.5;
 /// The rim shows mixed pixels along at least this share of the outline: the camera mixes depths
 /// across an edge, so a seam narrower than a pixel still shows as a dip.
 constexpr double kMixingRimShare = 0.3;
@@ -149,6 +151,37 @@ std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& l
   return std::nullopt;
 }
 
+namespace {
+
+/// The camera shows a seam narrower than a pixel: a fine pitch and mixed pixels across edges.
+bool resolves_seams(const LayoutResult& layout) {
+  return layout.pixel_pitch_m > 0.0 && layout.pixel_pitch_m <= kResolvableSeam_m && layout.rim_share >= kMixingRimShare;
+}
+
+/// Why the camera cannot show narrow seams (for a camera where resolves_seams() is false).
+std::string seam_blindness(const LayoutResult& layout) {
+  return layout.pixel_pitch_m > kResolvableSeam_m
+             ? "at a pixel pitch of " + mm(layout.pixel_pitch_m) + " the seams cannot be resolved"
+             : "this camera shows no mixed pixels at edges (stereo, structured light or a flying-pixel "
+               "filter), so seams narrower than its matching window are smoothed away";
+}
+
+}  // namespace
+
+std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
+  if (resolves_seams(layout)) return std::nullopt;
+  std::size_t undecided = 0;
+  for (const LayoutBox& b : layout.boxes) {
+    if (b.evidence.split_seam >= 0.0 && b.evidence.split_seam < kSplitSeam) ++undecided;
+  }
+  if (undecided == 0) return std::nullopt;
+  return LevelVerdict{DetectionStatus::kOk, std::to_string(undecided) +
+                                                " box(es) could as well be boxes of another recipe format (one box "
+                                                "where two stand side by side, or two where one stands): no seam "
+                                                "is seen where they would differ and " +
+                                                seam_blindness(layout)};
+}
+
 std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,
                                        const std::vector<BoxFormat>& formats) {
   const InteriorSeams& seams = layout.interior_seams;
@@ -157,8 +190,7 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   std::ostringstream share;
   share.precision(2);
   share << seams.seen_share();
-  const bool resolves_seams = layout.pixel_pitch_m > 0.0 && layout.pixel_pitch_m <= kResolvableSeam_m &&
-                              layout.rim_share >= kMixingRimShare;
+  const bool camera_shows_seams = resolves_seams(layout);
   // A sheet lies over a whole layer: one piece, no holes, a rectangle. On any other shape,
   // seamless boxes where this camera shows seams are named nothing but stay in doubt: a sheet
   // with a torn corner, a hole where the depth drops out or a curled edge is still a sheet the
@@ -167,25 +199,20 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   const double rect_m2 =
       one_piece ? static_cast<double>(min_area_rect(layer.polygons.front().outer).size.area()) * 1e-6 : 0.0;
   if (!one_piece || rect_m2 <= 0.0 || area(layer.polygons.front()) < kRectangleFill * rect_m2) {
-    if (!resolves_seams) return std::nullopt;
+    if (!camera_shows_seams) return std::nullopt;
     return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
                                                   " of their shared sides) where this camera shows seams, on "
                                                   "a layer that is not one plain rectangle: a slip sheet "
                                                   "cannot be ruled out"};
   }
-  if (resolves_seams) {
+  if (camera_shows_seams) {
     return LevelVerdict{DetectionStatus::kSlipSheet,
                         "a sheet covers the layer: one flat rectangle, seams seen along " + share.str() +
                             " of the box sides where the boxes would meet (pixel pitch " +
                             mm(layout.pixel_pitch_m) + ")"};
   }
-  const std::string why =
-      layout.pixel_pitch_m > kResolvableSeam_m
-          ? "at a pixel pitch of " + mm(layout.pixel_pitch_m) + " the seams cannot be resolved"
-          : "this camera shows no mixed pixels at edges (stereo, structured light or a flying-pixel "
-            "filter), so seams narrower than its matching window are smoothed away";
   return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
-                                                " of their shared sides) and " + why +
+                                                " of their shared sides) and " + seam_blindness(layout) +
                                                 ": a slip sheet and tightly packed cartons look the same"};
 }
 
@@ -268,7 +295,8 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
     if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity)) return deck;
   if (slots) return slots;
   if (layout.status != DetectionStatus::kOk) return std::nullopt;
-  return slip_sheet(layout, layer, formats);
+  if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
+  return formats_undecided(layout);
 }
 
 void layer_height(const std::optional<double>& layer_z_m, const std::vector<BoxFormat>& formats,

@@ -36,9 +36,16 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
 
 /// A layout whose interior box sides show no seam anywhere while the layer is one rectangle: a
 /// sheet covers the layer (kSlipSheet) where the sensor resolves seams; where it cannot, the
-/// result is flagged (kOk with a message for ambiguity_reason).
+/// result is flagged (kOk with a message for ambiguity_reason). On a layer of any other shape
+/// it is flagged where the sensor resolves seams (a torn or holed sheet), else left alone.
 std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,
                                        const std::vector<BoxFormat>& formats);
+
+/// A box that two boxes of another recipe format could replace, or a pair one box could
+/// (LayoutBox evidence split_seam), with no seam seen across it, on a camera that does not show
+/// narrow seams (a coarse pitch, or no mixed pixels at edges): the outline is the same either
+/// way and nothing in the frame decides, so the layout is flagged (kOk with the sentence).
+std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
 
 /// A box of the layout lies over a slot in the layer (a hole four times longer than wide under
 /// more than 3 % of its top): flagged (kOk with the sentence); the gaps of a pallet's deck look so.

@@ -5,6 +5,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "level_checks.hpp"
 #include "palletd/detection/detection.hpp"
 #include "palletd/sim/sim.hpp"
 
@@ -142,6 +143,33 @@ TEST_CASE("a sheet with a hole where the depth drops out is flagged, never an un
   CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
   REQUIRE(d.status == DetectionStatus::kOk);  // a hole: no longer the plain rectangle a sheet is named by
   CHECK(d.ambiguity_reason.find("not one plain rectangle") != std::string::npos);
+}
+
+TEST_CASE("one box or two of another format: flagged where the camera cannot show the seam between",
+          "[cell][formats]") {
+  LayoutResult layout;
+  layout.status = DetectionStatus::kOk;
+  LayoutBox box;
+  box.evidence.split_seam = 0.1;  // two boxes of another format would meet here: no seam seen
+  layout.boxes = {box};
+  layout.pixel_pitch_m = 0.004;
+  layout.rim_share = 0.05;  // no mixed pixels at edges: a stereo camera
+  const std::optional<LevelVerdict> stereo = formats_undecided(layout);
+  REQUIRE(stereo);
+  CHECK(stereo->status == DetectionStatus::kOk);
+  CHECK(stereo->message.find("another recipe format") != std::string::npos);
+  CHECK(stereo->message.find("stereo") != std::string::npos);
+  layout.pixel_pitch_m = 0.015;  // a coarse time-of-flight camera
+  layout.rim_share = 0.6;
+  REQUIRE(formats_undecided(layout));
+  CHECK(formats_undecided(layout)->message.find("pixel pitch of 15 mm") != std::string::npos);
+  layout.pixel_pitch_m = 0.004;  // a fine one: no seam seen means there is none
+  CHECK_FALSE(formats_undecided(layout));
+  layout.rim_share = 0.05;
+  layout.boxes[0].evidence.split_seam = 0.8;  // the seam is seen: the frame decides
+  CHECK_FALSE(formats_undecided(layout));
+  layout.boxes[0].evidence.split_seam = -1.0;  // no other format could stand here
+  CHECK_FALSE(formats_undecided(layout));
 }
 
 TEST_CASE("the full layer a sheet would cover shows its seams", "[cell][sheet]") {

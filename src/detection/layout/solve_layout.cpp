@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "evidence/layout_scoring.hpp"
 #include "layer_raster.hpp"
 #include "layout_internal.hpp"
 #include "palletd/detection/layout.hpp"
@@ -25,6 +26,56 @@ void mark_contested(LayoutResult& result) {
              std::abs(std::remainder(r.yaw_rad - b.yaw_rad, M_PI)) < 5.0 * M_PI / 180.0;
     });
     b.evidence.contested = !shared;
+  }
+}
+
+/// Tolerance of "the same size" between a box and two boxes of another format [m].
+constexpr double kSameSize_m = 0.012;
+
+/// The format that two boxes of format `half` side by side make (along their short sides), or -1.
+int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half) {
+  for (std::size_t f = 0; f < formats.size(); ++f) {
+    if (std::abs(formats[f].long_m - 2.0 * half.short_m) < kSameSize_m &&
+        std::abs(formats[f].short_m - half.long_m) < kSameSize_m)
+      return static_cast<int>(f);
+  }
+  return -1;
+}
+
+/// Marks boxes whose place another format could take by two, or a pair that one box of another
+/// format could replace, with the strongest seam across that box or pair: where the camera does
+/// not show narrow seams, nothing else tells the two apart (level_checks.cpp).
+void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const std::vector<BoxFormat>& formats,
+                       const SeamEvidence& seams, const LayoutParams& params, LayoutResult& result) {
+  auto seam_across = [&](const Box2d& box, int component) {
+    return layout_detail::box_support(box, components[static_cast<std::size_t>(component)], &seams, params)
+        .interior_seam;
+  };
+  std::vector<LayoutBox>& boxes = result.boxes;
+  for (LayoutBox& b : boxes) {
+    const auto fa = static_cast<std::size_t>(b.format);
+    if (fa >= formats.size() || b.component < 0 || static_cast<std::size_t>(b.component) >= components.size()) continue;
+    for (const BoxFormat& other : formats) {
+      if (doubled_format(formats, other) == b.format) b.evidence.split_seam = b.evidence.interior_seam;
+    }
+    const int doubled = doubled_format(formats, formats[fa]);
+    if (doubled < 0) continue;
+    for (LayoutBox& n : boxes) {  // a neighbour across its long side, of its format, in line
+      if (&n == &b || n.format != b.format || n.component != b.component) continue;
+      const Eigen::Vector2d axis(std::cos(b.yaw_rad), std::sin(b.yaw_rad));
+      const Eigen::Vector2d d = n.center - b.center;
+      if (std::abs(std::remainder(n.yaw_rad - b.yaw_rad, M_PI)) > 3.0 * M_PI / 180.0) continue;
+      if (std::abs(d.dot(axis)) > kSameSize_m || std::abs(std::abs(d.x() * axis.y() - d.y() * axis.x()) - formats[fa].short_m) > 0.025)
+        continue;
+      Box2d pair = b;
+      pair.center = 0.5 * (b.center + n.center);
+      pair.yaw_rad = b.yaw_rad + M_PI / 2;
+      pair.long_m = formats[static_cast<std::size_t>(doubled)].long_m;
+      pair.short_m = formats[static_cast<std::size_t>(doubled)].short_m;
+      pair.format = doubled;
+      const double seam = seam_across(pair, b.component);
+      b.evidence.split_seam = b.evidence.split_seam < 0 ? seam : std::min(b.evidence.split_seam, seam);
+    }
   }
 }
 
@@ -58,6 +109,7 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
     result = refine_layout(result, layer, formats, &seams, p, &around, &rim);
   }
   mark_contested(result);
+  if (formats.size() > 1) mark_format_doubt(layer.polygons, formats, seams, p, result);
   result.interior_seams = measure_interior_seams(result.boxes, seams, layer.polygons);
   result.pixel_pitch_m = layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
   double outline_m = 0.0;

@@ -227,6 +227,9 @@ struct BoxEvidence {
   double position_sigma_m = -1.0;  ///< standard deviation of the fitted centre, worse axis; -1 = not fitted
   double refine_shift_m = 0.0;     ///< how far the fit moved it from where the search put it [m]
   bool contested = false;  ///< the runner-up layout of its component has no box of its size here
+  /// Where the recipe makes the box two boxes of another format, or it and a neighbour one box
+  /// of another format: the strongest seam line across that box or pair, 0..1; -1 = neither.
+  double split_seam = -1.0;
 };
 
 /// One box of a layout: where it lies (layer frame) and how well the measurements support it.
