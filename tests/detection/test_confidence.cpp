@@ -7,25 +7,15 @@
 #include "palletd/detection/confidence.hpp"
 #include "palletd/detection/detection.hpp"
 #include "palletd/sim/sim.hpp"
+#include "sim_block_layer.hpp"
 
 using namespace palletd;
 
 namespace {
 
-/// A full block layer of 400x300 cartons, helios2 at 1.6-2.0 m: seams and outline seen well.
+/// The shared block layer (sim_block_layer.hpp) rendered by its helios2.
 sim::SimulatedFrame block_frame(std::uint64_t seed) {
-  const sim::SensorProfile profile = *sim::profile_by_name("helios2");
-  sim::ScenarioOptions options;
-  options.pattern = sim::PatternFamily::kBlock;
-  options.formats = {*sim::parse_format("400x300x250")};
-  options.lower_layers_min = options.lower_layers_max = 1;
-  options.height_min_m = 1.6;
-  options.height_max_m = 2.0;
-  options.tilt_max_deg = 8.0;
-  options.gap_max_m = 0.008;
-  Expected<sim::Scene> scene = sim::make_scene(options, profile, seed);
-  REQUIRE(scene);
-  return sim::render(*scene, profile, seed);
+  return sim::render(testing::block_layer_scene(seed), *sim::profile_by_name("helios2"), seed);
 }
 
 Detection detect_frame(const sim::SimulatedFrame& f) {

@@ -9,26 +9,13 @@
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/picking.hpp"
 #include "palletd/sim/sim.hpp"
+#include "sim_block_layer.hpp"
 
 using namespace palletd;
 
 namespace {
 
-/// A full block layer of 400x300 cartons on a EUR pallet, seen from 1.6-2.0 m (base = world).
-sim::Scene block_scene(std::uint64_t seed) {
-  const sim::SensorProfile profile = *sim::profile_by_name("helios2");
-  sim::ScenarioOptions options;
-  options.pattern = sim::PatternFamily::kBlock;
-  options.formats = {*sim::parse_format("400x300x250")};
-  options.lower_layers_min = options.lower_layers_max = 1;
-  options.height_min_m = 1.6;
-  options.height_max_m = 2.0;
-  options.tilt_max_deg = 8.0;
-  options.gap_max_m = 0.008;
-  Expected<sim::Scene> scene = sim::make_scene(options, profile, seed);
-  REQUIRE(scene);
-  return *scene;
-}
+using testing::block_layer_scene;
 
 double top_z(const sim::Scene& scene) {
   double z = 0.0;
@@ -79,7 +66,7 @@ void check_order(const Detection& d) {
 
 TEST_CASE("a gripper the size of a box takes every box of a free-standing layer, one per group",
           "[picking]") {
-  const sim::SimulatedFrame f = sim::render(block_scene(401), *sim::profile_by_name("helios2"), 401);
+  const sim::SimulatedFrame f = sim::render(block_layer_scene(401), *sim::profile_by_name("helios2"), 401);
   DetectionParams params;
   params.gripper = gripper_mm(400, 300);
   params.gripper->tcp_offset_mm = Eigen::Vector2d(50.0, 0.0);
@@ -111,7 +98,7 @@ TEST_CASE("a gripper the size of a box takes every box of a free-standing layer,
 }
 
 TEST_CASE("a post higher than the layer blocks the boxes under the footprint's clearance", "[picking]") {
-  sim::Scene scene = block_scene(402);
+  sim::Scene scene = block_layer_scene(402);
   // A pallet stop: an 80 mm square post 40 mm off the pallet's +x end, 0.3 m above the load.
   sim::SimBox post;
   post.center = Eigen::Vector2d(0.5 * scene.pallet_long_m + 0.08, 0.0);
@@ -148,7 +135,7 @@ TEST_CASE("a post higher than the layer blocks the boxes under the footprint's c
 }
 
 TEST_CASE("the region of interest's walls block a footprint that reaches past them", "[picking]") {
-  const sim::Scene scene = block_scene(403);
+  const sim::Scene scene = block_layer_scene(403);
   const sim::SimulatedFrame f = sim::render(scene, *sim::profile_by_name("helios2"), 403);
   DetectionParams params;
   params.roi = roi_around(scene, 0.03);
@@ -175,7 +162,7 @@ TEST_CASE("the region of interest's walls block a footprint that reaches past th
 
 TEST_CASE("yaw limits: a box is taken at the one of its two yaws the robot reaches, or not at all",
           "[picking]") {
-  const sim::SimulatedFrame f = sim::render(block_scene(404), *sim::profile_by_name("helios2"), 404);
+  const sim::SimulatedFrame f = sim::render(block_layer_scene(404), *sim::profile_by_name("helios2"), 404);
   DetectionParams params;
   params.gripper = gripper_mm(400, 300);
   params.gripper->yaw_min_deg = 150.0;
@@ -203,7 +190,7 @@ TEST_CASE("yaw limits: a box is taken at the one of its two yaws the robot reach
 }
 
 TEST_CASE("a wide gripper takes rows of boxes, or one box from the layer's edge", "[picking]") {
-  const sim::SimulatedFrame f = sim::render(block_scene(405), *sim::profile_by_name("helios2"), 405);
+  const sim::SimulatedFrame f = sim::render(block_layer_scene(405), *sim::profile_by_name("helios2"), 405);
   DetectionParams params;
   params.gripper = gripper_mm(820, 310);  // two 400x300 cartons end to end
   params.gripper->max_boxes = 2;
@@ -234,7 +221,7 @@ TEST_CASE("a wide gripper takes rows of boxes, or one box from the layer's edge"
 }
 
 TEST_CASE("a footprint larger than the box overhangs the layer's outside, never a neighbour", "[picking]") {
-  const sim::SimulatedFrame f = sim::render(block_scene(406), *sim::profile_by_name("helios2"), 406);
+  const sim::SimulatedFrame f = sim::render(block_layer_scene(406), *sim::profile_by_name("helios2"), 406);
   DetectionParams params;
   // 100 mm wider than the box: the layer is four boxes across their short sides, two along.
   params.gripper = gripper_mm(400, 400);
