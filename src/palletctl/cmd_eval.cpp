@@ -159,15 +159,15 @@ nlohmann::json to_json(const FrameEval& f) {
 }
 
 nlohmann::json to_json(const ScoreReport& r) {
-  nlohmann::json bins = nlohmann::json::array();
-  for (const ReliabilityBin& b : r.bins)
-    bins.push_back({{"lo", b.lo}, {"hi", b.hi}, {"n", b.n}, {"mean_score", b.mean_score}, {"right_share", b.right_share}});
-  nlohmann::json deciles = nlohmann::json::array();
-  for (const ReliabilityBin& b : r.deciles)
-    deciles.push_back({{"lo", b.lo}, {"hi", b.hi}, {"n", b.n}, {"mean_score", b.mean_score}, {"right_share", b.right_share}});
+  auto bins_json = [](const std::vector<ReliabilityBin>& bins) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const ReliabilityBin& b : bins)
+      out.push_back({{"lo", b.lo}, {"hi", b.hi}, {"n", b.n}, {"mean_score", b.mean_score}, {"right_share", b.right_share}});
+    return out;
+  };
   return {{"items", r.items}, {"right", r.right}, {"auc", r.auc}, {"max_bin_gap", r.max_bin_gap},
-          {"max_decile_gap", r.max_decile_gap}, {"deciles", std::move(deciles)},
-          {"high", r.high}, {"high_right", r.high_right}, {"bins", std::move(bins)}};
+          {"max_decile_gap", r.max_decile_gap}, {"deciles", bins_json(r.deciles)},
+          {"high", r.high}, {"high_right", r.high_right}, {"bins", bins_json(r.bins)}};
 }
 
 void print_score_report(const char* what, const ScoreReport& r) {

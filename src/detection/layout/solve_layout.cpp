@@ -47,22 +47,23 @@ int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half)
 /// not show narrow seams, nothing else tells the two apart (level_checks.cpp).
 void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const std::vector<BoxFormat>& formats,
                        const SeamEvidence& seams, const LayoutParams& params, LayoutResult& result) {
-  auto seam_across = [&](const Box2d& box, int component) {
-    return layout_detail::box_support(box, components[static_cast<std::size_t>(component)], &seams, params)
-        .interior_seam;
-  };
+  // Per format: the format two of it make, and whether two of another format make it.
+  std::vector<int> doubled(formats.size(), -1);
+  std::vector<bool> splits(formats.size(), false);
+  for (std::size_t f = 0; f < formats.size(); ++f) {
+    doubled[f] = doubled_format(formats, formats[f]);
+    if (doubled[f] >= 0) splits[static_cast<std::size_t>(doubled[f])] = true;
+  }
   std::vector<LayoutBox>& boxes = result.boxes;
   for (LayoutBox& b : boxes) {
     const auto fa = static_cast<std::size_t>(b.format);
     if (fa >= formats.size() || b.component < 0 || static_cast<std::size_t>(b.component) >= components.size()) continue;
-    for (const BoxFormat& other : formats) {
-      if (doubled_format(formats, other) == b.format) b.evidence.split_seam = b.evidence.interior_seam;
-    }
-    const int doubled = doubled_format(formats, formats[fa]);
-    if (doubled < 0) continue;
-    for (LayoutBox& n : boxes) {  // a neighbour across its long side, of its format, in line
+    if (splits[fa]) b.evidence.split_seam = b.evidence.interior_seam;
+    if (doubled[fa] < 0) continue;
+    const BoxFormat& pair_format = formats[static_cast<std::size_t>(doubled[fa])];
+    const Eigen::Vector2d axis(std::cos(b.yaw_rad), std::sin(b.yaw_rad));
+    for (const LayoutBox& n : boxes) {  // a neighbour across its long side, of its format, in line
       if (&n == &b || n.format != b.format || n.component != b.component) continue;
-      const Eigen::Vector2d axis(std::cos(b.yaw_rad), std::sin(b.yaw_rad));
       const Eigen::Vector2d d = n.center - b.center;
       if (std::abs(std::remainder(n.yaw_rad - b.yaw_rad, M_PI)) > 3.0 * M_PI / 180.0) continue;
       if (std::abs(d.dot(axis)) > kSameSize_m || std::abs(std::abs(d.x() * axis.y() - d.y() * axis.x()) - formats[fa].short_m) > 0.025)
@@ -70,10 +71,12 @@ void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const st
       Box2d pair = b;
       pair.center = 0.5 * (b.center + n.center);
       pair.yaw_rad = b.yaw_rad + M_PI / 2;
-      pair.long_m = formats[static_cast<std::size_t>(doubled)].long_m;
-      pair.short_m = formats[static_cast<std::size_t>(doubled)].short_m;
-      pair.format = doubled;
-      const double seam = seam_across(pair, b.component);
+      pair.long_m = pair_format.long_m;
+      pair.short_m = pair_format.short_m;
+      pair.format = doubled[fa];
+      const double seam =
+          layout_detail::box_support(pair, components[static_cast<std::size_t>(b.component)], &seams, params)
+              .interior_seam;
       b.evidence.split_seam = b.evidence.split_seam < 0 ? seam : std::min(b.evidence.split_seam, seam);
     }
   }

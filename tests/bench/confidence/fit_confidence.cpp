@@ -116,8 +116,7 @@ int fit(const std::vector<FrameRow>& rows, double l2, const std::vector<FrameRow
     y.insert(y.end(), r.right.begin(), r.right.end());
   }
   const LogisticFit box = fit_logistic(x, y, l2);
-  std::vector<double> box_scores;
-  for (const auto& f : x) box_scores.push_back(predict(box.weights, f));
+  // The layout model's inputs come from the new box model's confidences.
   std::vector<std::vector<double>> lx;
   std::vector<bool> ly;
   for (const FrameRow& r : rows) {
@@ -129,8 +128,6 @@ int fit(const std::vector<FrameRow>& rows, double l2, const std::vector<FrameRow
     ly.push_back(r.exact);
   }
   const LogisticFit layout = fit_logistic(lx, ly, l2);
-  std::vector<double> layout_scores;
-  for (const auto& f : lx) layout_scores.push_back(predict(layout.weights, f));
   std::printf(
       "// fitted on %zu boxes of %zu layouts (l2 %.g); box fit %s after %d iterations, layout fit %s after "
       "%d\n",
@@ -138,14 +135,13 @@ int fit(const std::vector<FrameRow>& rows, double l2, const std::vector<FrameRow
       layout.converged ? "converged" : "NOT converged", layout.iterations);
   print_weights("kBoxWeights", box.weights);
   print_weights("kLayoutWeights", layout.weights);
-  print_report("boxes (fitting set)", score_report(box_scores, y));
-  print_report("layouts (fitting set)", score_report(layout_scores, ly));
-  if (!held_out.empty()) {
-    std::vector<double> hb, hl;
-    std::vector<bool> hbr, hlr;
-    score_rows(held_out, box.weights, layout.weights, hb, hbr, hl, hlr);
-    print_report("boxes (held out)", score_report(hb, hbr));
-    print_report("layouts (held out)", score_report(hl, hlr));
+  for (const auto& [set, name] : {std::pair{&rows, "fitting set"}, std::pair{&held_out, "held out"}}) {
+    if (set->empty()) continue;
+    std::vector<double> bs, ls;
+    std::vector<bool> br, lr;
+    score_rows(*set, box.weights, layout.weights, bs, br, ls, lr);
+    print_report((std::string("boxes (") + name + ")").c_str(), score_report(bs, br));
+    print_report((std::string("layouts (") + name + ")").c_str(), score_report(ls, lr));
   }
   return box.converged && layout.converged ? 0 : 1;
 }
