@@ -197,4 +197,15 @@ std::vector<std::string> config_key_paths() {
   return keys;
 }
 
+std::vector<RecipeCandidate> recipe_candidates(const Config& config, int except) {
+  std::vector<RecipeCandidate> out;
+  for (const Recipe& r : config.recipes) {
+    if (r.number == except) continue;
+    RecipeCandidate c{r.number, {}};
+    for (int index : r.formats) c.formats.push_back(config.formats[static_cast<std::size_t>(index)]);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
 }  // namespace palletd

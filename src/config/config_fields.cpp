@@ -93,6 +93,18 @@ const Table<LayoutParams>& layout_table() {
   return t;
 }
 
+const Table<RecipeCheckParams>& recipe_check_table() {
+  static const Table<RecipeCheckParams> t = {
+      flag("enabled", &RecipeCheckParams::enabled),
+      number("undersize_tolerance_mm", &RecipeCheckParams::undersize_tolerance_mm, Range::closed(0.0, 200.0)),
+      number("undersize_pitches", &RecipeCheckParams::undersize_pitches, Range::closed(0.0, 10.0)),
+      number("oversize_tolerance_mm", &RecipeCheckParams::oversize_tolerance_mm, Range::closed(0.0, 200.0)),
+      number("oversize_pitches", &RecipeCheckParams::oversize_pitches, Range::closed(0.0, 10.0)),
+      integer("min_boxes_measured", &RecipeCheckParams::min_boxes_measured, 1, 1000),
+  };
+  return t;
+}
+
 }  // namespace
 
 const Table<DetectionParams>& detection_table() {
@@ -110,6 +122,7 @@ const Table<DetectionParams>& detection_table() {
       section("layer", &DetectionParams::layer, layer_table),
       section("contour", &DetectionParams::contour, contour_table),
       section("layout", &DetectionParams::layout, layout_table),
+      section("recipe_check", &DetectionParams::recipe_check, recipe_check_table),
       choice("pick_order", &DetectionParams::pick_order,
              {{"far_corner_first", PickOrder::kFarCornerFirst},
               {"row_major", PickOrder::kRowMajor},

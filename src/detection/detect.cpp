@@ -12,6 +12,7 @@
 #include "palletd/detection/confidence.hpp"
 #include "level_checks.hpp"
 #include "palletd/detection/picking.hpp"
+#include "palletd/detection/recipe_check.hpp"
 #include "poses.hpp"
 #include "roi.hpp"
 
@@ -26,6 +27,7 @@ const char* to_string(DetectionStatus status) {
     case DetectionStatus::kBadFrame: return "bad_frame";
     case DetectionStatus::kEmpty: return "empty";
     case DetectionStatus::kSlipSheet: return "slip_sheet";
+    case DetectionStatus::kRecipeMismatch: return "recipe_mismatch";
   }
   return "bad_frame";
 }
@@ -194,8 +196,20 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.boxes = to_detected_boxes(layout.boxes, out.layer.T_camera_layer,
                                 frame.T_base_camera, params.pick_order);
   layer_height(layer_z_m, formats, params.pallet, out);
-  score_boxes(layout, out);  // Stage 8a: each box's confidence, then the layout's.
-  if (params.gripper) {  // Stage 8b: what the gripper can take now, and in which order.
+  // Stage 8a: the cartons measured against the recipe; a layer of other cartons has no layout.
+  out.recipe_check = check_recipe(out.boxes, formats, params.recipe_check, layout.pixel_pitch_m,
+                                  params.layout.refine.max_oversize);
+  if (!out.recipe_check.agrees && !out.recipe_check.some_agree) {
+    out.boxes.clear();
+    return finish(DetectionStatus::kRecipeMismatch, out.recipe_check.reason);
+  }
+  if (!out.recipe_check.agrees) {  // some formats fit, others not: a wrong choice of format
+    out.ambiguous = true;
+    out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + out.recipe_check.reason;
+    out.ambiguity_kinds.push_back(AmbiguityKind::kLevelCheck);
+  }
+  score_boxes(layout, out);  // Stage 8b: each box's confidence, then the layout's.
+  if (params.gripper) {  // Stage 8c: what the gripper can take now, and in which order.
     t0 = Clock::now();
     const PickSurroundings surroundings{out.layer.T_camera_layer,
                                   obstacles_above_layer(frame, workspace.rays, out.layer.T_camera_layer,

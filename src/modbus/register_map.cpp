@@ -211,6 +211,7 @@ void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrde
   put_i32(r + kRegLayerZ, metres_to_tenth_mm(result.layer_z_m), order);
   r[kRegCoverage] = unit_to_permille(result.coverage);
   r[kRegLayoutConfidence] = unit_to_permille(result.layout_confidence);
+  r[kRegBestRecipe] = result.best_recipe;
   for (std::uint16_t i = 0; i < reported; ++i) {
     const BoxRecord& b = result.boxes[i];
     std::uint16_t* slot = r + kBoxStart + kBoxStride * i;
@@ -294,6 +295,7 @@ DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
   rec.layer_z_m = tenth_mm_to_metres(get_i32(r + kRegLayerZ, order));
   rec.coverage = r[kRegCoverage] * 1e-3;
   rec.layout_confidence = r[kRegLayoutConfidence] * 1e-3;
+  rec.best_recipe = r[kRegBestRecipe];
   const std::uint16_t reported = std::min<std::uint16_t>(r[kRegBoxesReported], kMaxBoxes);
   for (std::uint16_t i = 0; i < reported; ++i) {
     const std::uint16_t* slot = r + kBoxStart + kBoxStride * i;

@@ -27,6 +27,8 @@ const char* detection_failure_text(std::uint16_t detail) {
       return "no box layout fits the layer";
     case modbus::DetectionFailure::kBadFrame:
       return "the frame is unusable";
+    case modbus::DetectionFailure::kRecipeMismatch:
+      return "the cartons do not match the recipe (register 532: the recipe that fits)";
     case modbus::DetectionFailure::kUnknown:
       break;
   }

@@ -55,6 +55,7 @@ int run_detect(const DetectArgs& a) {
     } else {
       if (setup.T_base_camera) frame->T_base_camera = setup.T_base_camera;
       detection = detect(*frame, setup.formats, setup.params, workspace);
+      name_best_recipe(*frame, setup, setup.params, workspace, detection);
     }
     std::printf("%s\n", detection_to_json_line(detection, stem).c_str());
     std::fflush(stdout);

@@ -155,6 +155,9 @@ nlohmann::json to_json(const FrameEval& f) {
           {"runtime_ms", f.runtime_ms},
           {"layout_confidence", f.layout_confidence},
           {"outline_unobserved", f.outline_unobserved},
+          {"recipe_wrong", f.recipe_wrong},
+          {"best_recipe", f.best_recipe ? nlohmann::json(*f.best_recipe) : nlohmann::json(nullptr)},
+          {"truth_recipe", f.truth_recipe ? nlohmann::json(*f.truth_recipe) : nlohmann::json(nullptr)},
           {"boxes", boxes_json(f.boxes)}};
 }
 
@@ -213,7 +216,12 @@ nlohmann::json to_json(const EvalSummary& s) {
           {"empty_frames", s.empty_frames},
           {"empty_right", s.empty_right},
           {"sheet_frames", s.sheet_frames},
-          {"sheet_right", s.sheet_right}};
+          {"sheet_right", s.sheet_right},
+          {"wrong_recipe_frames", s.wrong_recipe_frames},
+          {"wrong_recipe_mismatch", s.wrong_recipe_mismatch},
+          {"wrong_recipe_named", s.wrong_recipe_named},
+          {"wrong_recipe_named_right", s.wrong_recipe_named_right},
+          {"false_mismatch", s.false_mismatch}};
 }
 
 int run_eval(const EvalArgs& a) {
@@ -250,9 +258,16 @@ int run_eval(const EvalArgs& a) {
       detection.status = DetectionStatus::kBadFrame;
       detection.message = frame.error();
     } else {
-      detection = detect(*frame, formats, frame_params(setup.params, stem, a.cell_files), workspace);
+      const DetectionParams params = frame_params(setup.params, stem, a.cell_files);
+      detection = detect(*frame, formats, params, workspace);
+      name_best_recipe(*frame, setup, params, workspace, detection);
     }
-    FrameEval e = evaluate_frame(detection, *truth, names);
+    EvalOptions options;
+    options.recipe_wrong = !setup.formats.empty() && !recipe_matches(formats, *truth);
+    FrameEval e = evaluate_frame(detection, *truth, names, options);
+    for (const RecipeCandidate& c : setup.other_recipes) {
+      if (!e.truth_recipe && recipe_matches(c.formats, *truth)) e.truth_recipe = c.number;
+    }
     e.frame = stem;
     e.outline_tied = truth_outline_tied(*truth, formats, names);
     if (a.json) {
@@ -283,6 +298,10 @@ int run_eval(const EvalArgs& a) {
                 s.tied_frames, s.tied_resolved, s.tied_flagged, s.tied_wrong);
     std::printf("unflagged wrong %zu | empty pallets %zu: empty %zu | slip sheets %zu: slip_sheet %zu\n",
                 s.unflagged_wrong, s.empty_frames, s.empty_right, s.sheet_frames, s.sheet_right);
+    std::printf("wrong recipe %zu: recipe_mismatch %zu, best recipe named %zu, right %zu | right recipe answered "
+                "recipe_mismatch %zu\n",
+                s.wrong_recipe_frames, s.wrong_recipe_mismatch, s.wrong_recipe_named, s.wrong_recipe_named_right,
+                s.false_mismatch);
     std::printf("position error median %.2f mm, p95 %.2f mm, max %.2f mm | yaw median %.3f deg, p95 %.3f deg\n",
                 s.position_median_mm, s.position_p95_mm, s.position_max_mm, s.yaw_median_deg, s.yaw_p95_deg);
     std::printf("pairwise centroid-distance error (paper metric) mean %.2f mm | runtime median %.1f ms, p95 %.1f ms\n",

@@ -57,6 +57,7 @@ DetectSetup make_detect_setup(const std::string& config_path, int recipe, const 
     }
     setup.params = config.detection;
     setup.T_base_camera = config.T_base_camera;
+    setup.other_recipes = recipe_candidates(config, boxes.empty() ? recipe : 0);
   }
   for (const auto& b : boxes) {
     auto f = parse_box_arg(b);
@@ -77,6 +78,12 @@ DetectSetup make_detect_setup(const std::string& config_path, int recipe, const 
     }
   }
   return setup;
+}
+
+void name_best_recipe(const Frame& frame, const DetectSetup& setup, const DetectionParams& params,
+                      DetectionWorkspace& workspace, Detection& detection) {
+  if (detection.status != DetectionStatus::kRecipeMismatch || setup.other_recipes.empty()) return;
+  detection.recipe_check.best_recipe = best_fitting_recipe(frame, setup.other_recipes, params, workspace);
 }
 
 void write_bytes(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes) {

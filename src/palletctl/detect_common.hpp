@@ -27,8 +27,15 @@ struct DetectSetup {
   DetectionParams params;
   std::vector<BoxFormat> formats;  ///< empty: take the truth file's recipe (eval only)
   std::optional<Eigen::Isometry3d> T_base_camera;  ///< from the config, when it has one
+  /// The config's recipes other than --recipe: where a frame's cartons disagree with the
+  /// formats (recipe_mismatch), the one that fits best is named (as the daemon does).
+  std::vector<RecipeCandidate> other_recipes;
 };
 DetectSetup make_detect_setup(const std::string& config_path, int recipe, const std::vector<std::string>& boxes);
+
+/// With a recipe mismatch, sets detection.recipe_check.best_recipe from setup.other_recipes.
+void name_best_recipe(const Frame& frame, const DetectSetup& setup, const DetectionParams& params,
+                      DetectionWorkspace& workspace, Detection& detection);
 
 /// Writes `bytes` to `path` (an overlay, a debug picture); logs when it cannot.
 void write_bytes(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes);

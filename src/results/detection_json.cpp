@@ -55,6 +55,23 @@ Json score_terms_json(const ScoreTerms& t) {
           {"outline_unobserved", t.outline_unobserved}};
 }
 
+/// The recipe check: each format's measured sides and the recipe that fits (recipe_check.hpp).
+Json recipe_check_json(const RecipeCheck& c) {
+  auto mm = [](double m) { return m > 0.0 ? Json(1e3 * m) : Json(nullptr); };
+  Json formats = Json::array();
+  for (const FormatCheck& f : c.formats) {
+    formats.push_back({{"format", f.format},
+                       {"nominal_mm", {1e3 * f.nominal_long_m, 1e3 * f.nominal_short_m}},
+                       {"measured_mm", {mm(f.measured_long_m), mm(f.measured_short_m)}},
+                       {"boxes_measured", {f.boxes_long, f.boxes_short}},
+                       {"agrees", f.agrees}});
+  }
+  return {{"checked", c.checked},
+          {"agrees", c.agrees},
+          {"formats", std::move(formats)},
+          {"best_recipe", c.best_recipe ? Json(*c.best_recipe) : Json(nullptr)}};
+}
+
 }  // namespace
 
 std::string detection_to_json_line(const Detection& detection, const std::string& frame_stem) {
@@ -83,6 +100,7 @@ std::string detection_to_json_line(const Detection& detection, const std::string
   j["outline_unobserved"] = detection.outline_unobserved;
   j["layers_remaining"] = detection.layers_remaining ? Json(*detection.layers_remaining) : Json(nullptr);
   j["layout_confidence"] = detection.layout_confidence;
+  if (!detection.recipe_check.formats.empty()) j["recipe_check"] = recipe_check_json(detection.recipe_check);
   Json boxes = Json::array();
   for (const DetectedBox& b : detection.boxes) {
     Json box;
@@ -90,6 +108,8 @@ std::string detection_to_json_line(const Detection& detection, const std::string
     box["long_axis"] = vec3(b.long_axis);
     box["normal"] = vec3(b.normal);
     box["size"] = {b.long_m, b.short_m};
+    box["measured_size"] = {b.measured_long_m > 0 ? Json(b.measured_long_m) : Json(nullptr),
+                            b.measured_short_m > 0 ? Json(b.measured_short_m) : Json(nullptr)};
     box["format"] = b.format;
     box["score"] = b.score;
     box["score_terms"] = score_terms_json(b.score_terms);

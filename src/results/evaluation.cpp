@@ -149,11 +149,33 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
     }
   }
   e.pairwise_error_mm = pw_n > 0 ? pw_sum / static_cast<double>(pw_n) : 0.0;
-  e.exact = e.expect == "boxes" ? detection.status == DetectionStatus::kOk && e.matched == e.truth_boxes &&
-                                       e.matched == e.detected_boxes && within && e.formats_right
-                                 : e.status == e.expect;
+  e.recipe_wrong = options.recipe_wrong;
+  e.best_recipe = detection.recipe_check.best_recipe;
+  if (e.recipe_wrong && e.expect == "boxes") {
+    e.exact = detection.status == DetectionStatus::kRecipeMismatch;
+  } else {
+    e.exact = e.expect == "boxes" ? detection.status == DetectionStatus::kOk && e.matched == e.truth_boxes &&
+                                         e.matched == e.detected_boxes && within && e.formats_right
+                                   : e.status == e.expect;
+  }
   e.unflagged_wrong = !e.exact && detection.status == DetectionStatus::kOk && !detection.ambiguous;
   return e;
+}
+
+bool recipe_matches(const std::vector<BoxFormat>& formats, const Truth& truth) {
+  if (formats.size() != truth.recipe_mm.size()) return false;
+  std::vector<bool> used(formats.size(), false);
+  for (const auto& mm : truth.recipe_mm) {
+    bool found = false;
+    for (std::size_t i = 0; i < formats.size() && !found; ++i) {
+      if (used[i] || std::abs(1e3 * formats[i].long_m - mm[0]) > 1.0 || std::abs(1e3 * formats[i].short_m - mm[1]) > 1.0)
+        continue;
+      used[i] = true;
+      found = true;
+    }
+    if (!found) return false;
+  }
+  return true;
 }
 
 EvalSummary summarize(const std::vector<FrameEval>& frames) {
@@ -165,6 +187,15 @@ EvalSummary summarize(const std::vector<FrameEval>& frames) {
     if (f.exact) ++s.exact_frames;
     if (f.ambiguous) ++s.ambiguous_frames;
     if (f.unflagged_wrong) ++s.unflagged_wrong;
+    const bool mismatch = f.status == to_string(DetectionStatus::kRecipeMismatch);
+    if (f.recipe_wrong && f.expect == "boxes") {
+      ++s.wrong_recipe_frames;
+      if (mismatch) ++s.wrong_recipe_mismatch;
+      if (f.best_recipe) ++s.wrong_recipe_named;
+      if (f.best_recipe && f.best_recipe == f.truth_recipe) ++s.wrong_recipe_named_right;
+    } else if (mismatch) {
+      ++s.false_mismatch;
+    }
     if (f.expect == "empty") {
       ++s.empty_frames;
       if (f.exact) ++s.empty_right;

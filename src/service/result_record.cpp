@@ -11,6 +11,7 @@ modbus::DetectionFailure failure_of(DetectionStatus status) {
     case DetectionStatus::kNoLayer: return modbus::DetectionFailure::kNoLayer;
     case DetectionStatus::kNoLayout: return modbus::DetectionFailure::kNoLayout;
     case DetectionStatus::kBadFrame: return modbus::DetectionFailure::kBadFrame;
+    case DetectionStatus::kRecipeMismatch: return modbus::DetectionFailure::kRecipeMismatch;
     case DetectionStatus::kOk:
     case DetectionStatus::kEmpty:
     case DetectionStatus::kSlipSheet: break;
@@ -115,6 +116,8 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
   r.layer_z_m = detection.status == DetectionStatus::kOk ? layer_z_m(detection, base_frame) : 0.0;
   r.coverage = detection.coverage;
   r.layout_confidence = detection.layout_confidence;
+  if (detection.recipe_check.best_recipe)
+    r.best_recipe = static_cast<std::uint16_t>(std::clamp(*detection.recipe_check.best_recipe, 0, 65535));
   fill_picks(detection, r);
   auto total = detection.timing_ms.find("total");
   r.processing_ms = total != detection.timing_ms.end() ? total->second : 0.0;

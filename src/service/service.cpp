@@ -336,6 +336,10 @@ class Service::Impl {
     for (int index : recipe.formats) formats.push_back(cfg.formats[static_cast<std::size_t>(index)]);
     const auto t0 = Clock::now();
     Detection detection = detect(frame, formats, cfg.detection, workspace_);
+    if (detection.status == DetectionStatus::kRecipeMismatch) {  // which recipe the frame shows
+      detection.recipe_check.best_recipe =
+          best_fitting_recipe(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace_);
+    }
     const double elapsed_ms = ms_between(t0, Clock::now());
     const bool base = frame.T_base_camera.has_value();
     record = to_result_record(detection, base);

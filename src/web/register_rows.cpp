@@ -235,6 +235,9 @@ Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult
                        res.result_id_copy == res.result_id ? "matches 200" : "differs from 200: torn read"));
   result.push_back(row(image, modbus::kRegLayoutConfidence, 1, "layout confidence",
                        fixed(rec.layout_confidence, 3), "estimated probability that every box is right"));
+  result.push_back(row(image, modbus::kRegBestRecipe, 1, "best-fitting recipe",
+                       rec.best_recipe != 0 ? std::to_string(rec.best_recipe) : "-",
+                       rec.best_recipe != 0 ? "the frame shows this recipe's cartons" : "set with a recipe mismatch"));
   return result;
 }
 

@@ -136,12 +136,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case DetectionStatus::kBadFrame:
     case DetectionStatus::kEmpty:
     case DetectionStatus::kSlipSheet:
+    case DetectionStatus::kRecipeMismatch:
       break;
     default:
       fail("detect() returned no valid status");
   }
   if (d.status != DetectionStatus::kOk && d.message.empty()) fail(std::string("status ") + to_string(d.status) + " without a message");
-  if ((d.status == DetectionStatus::kEmpty || d.status == DetectionStatus::kSlipSheet) && !d.boxes.empty())
+  if (d.status != DetectionStatus::kOk && !d.boxes.empty())
     fail(std::string("status ") + to_string(d.status) + " with boxes");
   if (d.status == DetectionStatus::kOk) {
     if (d.boxes.empty()) fail("status ok without boxes");

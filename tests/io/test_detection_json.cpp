@@ -36,6 +36,9 @@ Detection sample_detection() {
   d.coverage = 0.98;
   d.ambiguous = true;
   d.layout_confidence = 0.42;
+  d.recipe_check.checked = true;
+  d.recipe_check.best_recipe = 4;
+  d.recipe_check.formats = {FormatCheck{0, 0.4, 0.3, 0.405, -1.0, 3, 0, true}};
   d.boxes = {sample_box(), sample_box()};
   DetectedBox& a = d.boxes[0];
   a.score_terms.support = 0.91;
@@ -82,6 +85,11 @@ TEST_CASE("detection line has the keys of the spec in order") {
   CHECK(j["boxes"][1]["base"]["yaw_deg"] == -90.0);
   CHECK(j["boxes"][1]["pick_index"] == 0);
   CHECK(j["layout_confidence"] == 0.42);
+  CHECK(j["recipe_check"]["best_recipe"] == 4);
+  CHECK(j["recipe_check"]["formats"][0]["measured_mm"][0] == Approx(405.0));
+  CHECK(j["recipe_check"]["formats"][0]["measured_mm"][1].is_null());
+  CHECK(j["recipe_check"]["formats"][0]["boxes_measured"] == nlohmann::ordered_json({3, 0}));
+  CHECK(j["boxes"][0].contains("measured_size"));
   const auto& terms = j["boxes"][0]["score_terms"];
   CHECK(terms["support"] == 0.91);
   CHECK(terms["position_sigma_mm"] == 1.25);

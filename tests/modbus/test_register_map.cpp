@@ -63,6 +63,7 @@ ResultRecord make_result(int boxes) {
   r.layer_z_m = -1.2345;
   r.coverage = 0.97;
   r.layout_confidence = 0.873;
+  r.best_recipe = 12;
   for (int i = 0; i < boxes; ++i) {
     BoxRecord b;
     b.x_m = 0.1 * i - 1.0;
@@ -78,7 +79,7 @@ ResultRecord make_result(int boxes) {
 }
 }  // namespace
 
-TEST_CASE("a result encodes into 200..531 and decodes back in both word orders",
+TEST_CASE("a result encodes into 200..532 and decodes back in both word orders",
           "[modbus][register_map]") {
   for (const WordOrder order : {WordOrder::kHighWordFirst, WordOrder::kLowWordFirst}) {
     RegisterImage image{};
@@ -92,7 +93,8 @@ TEST_CASE("a result encodes into 200..531 and decodes back in both word orders",
     CHECK(image[kRegResultFlags] == (kResAmbiguous | kResLayerClipped | kResOutlineUnobserved));
     CHECK(image[kRegCoverage] == 970);
     CHECK(image[kRegLayoutConfidence] == 873);
-    CHECK(image[kRegLayoutConfidence + 1] == 0);  // the gap 532..539 reads 0
+    CHECK(image[kRegBestRecipe] == 12);
+    CHECK(image[kRegBestRecipe + 1] == 0);  // the gap 533..539 reads 0
     // outside the block untouched
     CHECK(image[kResultStart - 1] == 0xABCD);
     const DecodedResult out = decode_result(image, order);
@@ -106,6 +108,7 @@ TEST_CASE("a result encodes into 200..531 and decodes back in both word orders",
     CHECK(out.record.layer_clipped);
     CHECK(out.record.outline_unobserved);
     CHECK(out.record.layout_confidence == Approx(0.873).margin(0.0005));
+    CHECK(out.record.best_recipe == 12);
     REQUIRE(out.record.boxes.size() == 32);
     for (std::size_t i = 0; i < 32; ++i) {
       const BoxRecord& a = in.boxes[i];
@@ -360,7 +363,7 @@ TEST_CASE("a result with picks encodes the pick block and decodes back in both w
     CHECK(image[kRegGroupsFound] == 2);
     CHECK(image[kRegGroupsReported] == 2);
     CHECK(image[kRegPickableBoxes] == 3);
-    for (std::uint16_t a = kRegLayoutConfidence + 1; a < kPickStart; ++a) CHECK(image[a] == 0);
+    for (std::uint16_t a = kRegBestRecipe + 1; a < kPickStart; ++a) CHECK(image[a] == 0);
     for (std::uint16_t a = kRegPickableBoxes + 1; a < kGroupStart; ++a) CHECK(image[a] == 0);
     // group 1: TCP, box count, first box slot, pick index at 560..569
     const std::uint16_t* g1 = &image[kGroupStart + kGroupStride];
@@ -415,7 +418,7 @@ TEST_CASE("a result without a gripper leaves 540..902 zero except the result ids
   encode_result(plain, 6, WordOrder::kHighWordFirst, image);
   CHECK(image[kRegPickResultId] == 6);
   CHECK(image[kPickIdCopy] == 6);
-  for (std::uint16_t a = kRegLayoutConfidence + 1; a < kPickIdCopy; ++a) {
+  for (std::uint16_t a = kRegBestRecipe + 1; a < kPickIdCopy; ++a) {
     if (a == kRegPickResultId) continue;
     INFO("register " << a);
     CHECK(image[a] == 0);

@@ -66,6 +66,14 @@ TEST_CASE("failed detections carry the failure as error detail, an empty layout 
   Detection empty;
   empty.status = DetectionStatus::kOk;
   CHECK(palletd::to_result_record(empty, false).status == palletd::modbus::ResultStatus::kNoBoxes);
+  Detection mismatch;
+  mismatch.status = DetectionStatus::kRecipeMismatch;
+  mismatch.recipe_check.best_recipe = 7;
+  const auto m = palletd::to_result_record(mismatch, false);
+  CHECK(m.status == palletd::modbus::ResultStatus::kFailed);
+  CHECK(m.error_detail == static_cast<std::uint16_t>(palletd::modbus::DetectionFailure::kRecipeMismatch));
+  CHECK(m.best_recipe == 7);
+  CHECK(palletd::to_result_record(failed, false).best_recipe == 0);
 }
 
 TEST_CASE("an empty pallet and a slip sheet are 'no boxes' with their detail, never a failure") {

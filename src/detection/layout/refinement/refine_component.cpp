@@ -302,6 +302,21 @@ std::vector<double> component_turns(const std::vector<SideTurn>& turns, std::siz
   return own;
 }
 
+/// Box k's extent along frame x and y from its own side observations only: the + side's position
+/// minus the - side's, -1 along an axis where either was not measured.
+Eigen::Vector2d measured_extent(const std::vector<SideObservation>& sides, std::size_t k) {
+  Eigen::Vector2d lo(NAN, NAN), hi(NAN, NAN);
+  for (const SideObservation& s : sides) {
+    if (static_cast<std::size_t>(s.box) != k) continue;
+    (s.sign < 0 ? lo : hi)[s.axis] = s.pos_m;
+  }
+  Eigen::Vector2d out(-1.0, -1.0);
+  for (int a = 0; a < 2; ++a) {
+    if (std::isfinite(lo[a]) && std::isfinite(hi[a]) && hi[a] > lo[a]) out[a] = hi[a] - lo[a];
+  }
+  return out;
+}
+
 }  // namespace
 
 PointGrid::PointGrid(const std::vector<Eigen::Vector2f>& pts, double cell_m) : pts_(pts), cell_(cell_m) {
@@ -362,6 +377,9 @@ ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWit
     const Eigen::Vector2d shift = fitted[k].center - ev[k].jb.center;
     if (!fitted[k].center.allFinite() || shift.norm() > kMaxShiftShare * box.short_m)
       continue;  // wrong association
+    const Eigen::Vector2d measured = measured_extent(sides, k);
+    boxes[idx[k]].evidence.measured_long_m = ev[k].along_x ? measured.x() : measured.y();
+    boxes[idx[k]].evidence.measured_short_m = ev[k].along_x ? measured.y() : measured.x();
     boxes[idx[k]].evidence.position_sigma_m = fitted[k].sigma_center.maxCoeff();
     boxes[idx[k]].evidence.refine_shift_m = shift.norm();
     box.center = cf.frame.to_layer(fitted[k].center);

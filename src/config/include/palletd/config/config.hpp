@@ -16,6 +16,7 @@
 #include "palletd/core/geometry.hpp"
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/pick_check.hpp"
+#include "palletd/detection/recipe_choice.hpp"
 #include "palletd/drivers/camera_config.hpp"
 #include "palletd/modbus/server.hpp"
 #include "palletd/web/web.hpp"
@@ -102,6 +103,10 @@ struct CellFile {
   PalletParams pallet;
 };
 CellFile load_cell_file(const std::string& path);
+
+/// The recipes as best_fitting_recipe() takes them (their formats resolved), all but the one
+/// numbered `except`.
+std::vector<RecipeCandidate> recipe_candidates(const Config& config, int except);
 
 /// Key paths ("modbus.port", "formats", ...) whose values differ between two configurations
 /// (source_path is not compared). Empty when they are equal.

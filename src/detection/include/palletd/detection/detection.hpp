@@ -16,6 +16,7 @@
 #include "palletd/detection/layer.hpp"
 #include "palletd/detection/status.hpp"
 #include "palletd/detection/layout.hpp"
+#include "palletd/detection/recipe_check.hpp"
 
 namespace palletd {
 
@@ -65,6 +66,7 @@ struct DetectionParams {
   PickOrder pick_order = PickOrder::kFarCornerFirst;
   /// The gripper (config `gripper`); null: no pickability, TCP poses or groups.
   std::optional<GripperParams> gripper;
+  RecipeCheckParams recipe_check;  ///< when the measured cartons disagree with the recipe
   DepthNoiseModel noise_model;  ///< the camera's depth noise, for the frame's health (`health.noise_model`)
 };
 
@@ -103,6 +105,9 @@ struct DetectedBox {
   /// Completed across an outline edge where the depth ends: part of its top was not seen, so its
   /// far side is placed by the format, not measured (LayoutParams::unseen_min_fraction).
   bool partly_unseen = false;
+  /// Side lengths measured from the box's own opposite sides (outline or seams), long and short
+  /// [m]; -1 where a side of the pair was not seen (JSON `measured_size`, null there).
+  double measured_long_m = -1.0, measured_short_m = -1.0;
   Box2d in_layer;        ///< the same box in the layer frame
   std::optional<Eigen::Vector3d> base_position;  ///< [m] when T_base_camera is known
   std::optional<double> base_yaw_deg;            ///< [deg] (-180, 180]
@@ -141,6 +146,9 @@ struct Detection {
   /// The height above the pallet is not a whole number of box heights (ambiguous is set too).
   bool height_off_layers = false;
   std::vector<DetectedBox> boxes;
+  /// The boxes' measured sides against the recipe's formats (status recipe_mismatch when they
+  /// disagree; the boxes are then dropped, the measurements stay here).
+  RecipeCheck recipe_check;
   /// With a gripper: the picks that can be made now, in pick order (each pickable box is in one).
   std::vector<PickGroup> groups;
   FrameHealth health;  ///< how well the camera saw the cell in this frame (every readable frame)

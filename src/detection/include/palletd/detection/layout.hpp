@@ -230,6 +230,11 @@ struct BoxEvidence {
   /// Where the recipe makes the box two boxes of another format, or it and a neighbour one box
   /// of another format: the strongest seam line across that box or pair, 0..1; -1 = neither.
   double split_seam = -1.0;
+  /// Side lengths measured from its own sides alone (the outline or a seam seen on both opposite
+  /// sides, no prior), long and short [m]; -1 where a side of the pair was not seen. The recipe
+  /// check compares them with the format (recipe_check.hpp).
+  double measured_long_m = -1.0;
+  double measured_short_m = -1.0;
 };
 
 /// One box of a layout: where it lies (layer frame) and how well the measurements support it.

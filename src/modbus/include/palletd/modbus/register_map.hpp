@@ -23,8 +23,12 @@ inline constexpr std::uint16_t kMaxBoxes = 32;
 inline constexpr std::uint16_t kResultIdCopy = 530;  ///< copy of register 200
 /// Layout confidence 0..1000 (Detection::layout_confidence), written with the result block.
 inline constexpr std::uint16_t kRegLayoutConfidence = 531;
-/// 200..531: the result block and the layout confidence after it (one consistent read each).
-inline constexpr std::uint16_t kResultCount = kRegLayoutConfidence - kResultStart + 1;
+/// With a recipe mismatch (error detail 8): the number of the configured recipe whose cartons
+/// the frame shows best, 0 when none fits (or none was sought), written with the result block.
+inline constexpr std::uint16_t kRegBestRecipe = 532;
+/// 200..532: the result block, the layout confidence and the best recipe after it (one
+/// consistent read each).
+inline constexpr std::uint16_t kResultCount = kRegBestRecipe - kResultStart + 1;
 // pick block 540..902, read-only: written with each result (same image update), cleared with it
 inline constexpr std::uint16_t kPickStart = 540;
 inline constexpr std::uint16_t kPickHeaderCount = 10;  ///< 540..549 (545..549 reserved, read 0)
@@ -203,6 +207,9 @@ enum class DetectionFailure : std::uint16_t {
   kNoLayer = 2,
   kNoLayout = 3,
   kBadFrame = 4,
+  /// The boxes' measured sides disagree with the recipe's formats: register 532 names the
+  /// configured recipe that fits best (numbered after ResultDetail's codes).
+  kRecipeMismatch = 8,
 };
 
 /// Why a result has no boxes though nothing failed (register 130, and 102 while 101 = 0);
@@ -229,7 +236,7 @@ enum class PickStatus : std::uint16_t {
 enum class WordOrder : std::uint8_t { kHighWordFirst, kLowWordFirst };
 
 /// The whole addressable register space 0..902 (control, status, result extension, connection,
-/// health, result and pick blocks; the gaps 16..99, 154..199, 532..539 and 545..549
+/// health, result and pick blocks; the gaps 16..99, 154..199, 533..539 and 545..549
 /// read 0).
 using RegisterImage = std::array<std::uint16_t, kRegisterCount>;
 
@@ -282,6 +289,7 @@ struct ResultRecord {
   double layer_z_m = 0.0;       ///< layer height [m]
   double coverage = 0.0;        ///< 0..1
   double layout_confidence = 0.0;  ///< 0..1, P(the layout is exact) (register 531)
+  std::uint16_t best_recipe = 0;  ///< recipe mismatch: the configured recipe that fits best, 0 = none (532)
   double processing_ms = 0.0;   ///< detection wall time [ms] (register 113)
   bool picking = false;         ///< a gripper is configured: the pick fields below are valid
   std::uint16_t groups_found = 0;  ///< may exceed groups.size() if the service truncated

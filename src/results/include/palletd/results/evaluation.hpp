@@ -13,7 +13,13 @@ namespace palletd {
 struct EvalOptions {
   double exact_position_mm = 15.0;  ///< exact layout: every box within this ...
   double exact_yaw_deg = 2.0;       ///< ... and this
+  /// The detector was given other formats than the truth's recipe (recipe_matches() false): the
+  /// right answer is then recipe_mismatch, and any unflagged layout is wrong.
+  bool recipe_wrong = false;
 };
+
+/// Whether `formats` are the truth's recipe (the same sizes, in any order, within 1 mm).
+bool recipe_matches(const std::vector<BoxFormat>& formats, const Truth& truth);
 
 /// One detected box against the truth: whether it is right, and what its confidence rests on.
 struct BoxEval {
@@ -43,6 +49,9 @@ struct FrameEval {
   std::vector<BoxEval> boxes;       ///< per detected box, in the detection's order
   double layout_confidence = 0.0;   ///< Detection::layout_confidence
   bool outline_unobserved = false;  ///< Detection::outline_unobserved
+  bool recipe_wrong = false;         ///< EvalOptions::recipe_wrong
+  std::optional<int> best_recipe;    ///< the recipe the detection named as fitting (recipe mismatch)
+  std::optional<int> truth_recipe;   ///< the configured recipe with the truth's formats, when known
   /// Whether the truth's own outline determines its layout: 0 = yes (unambiguous: the
   /// detection must be exact), 1 = no (another layout fits the outline as well: exact or
   /// flagged ambiguous is right), -1 = not checked.
@@ -72,6 +81,11 @@ struct EvalSummary {
   std::size_t unflagged_wrong = 0;  ///< FrameEval::unflagged_wrong
   /// Frames whose truth expects `empty` or `slip_sheet`, and how many were answered so.
   std::size_t empty_frames = 0, empty_right = 0, sheet_frames = 0, sheet_right = 0;
+  /// Frames detected with another recipe than their truth's, how many answered recipe_mismatch,
+  /// named a best-fitting recipe, named the truth's; frames with the right recipe that answered
+  /// recipe_mismatch all the same.
+  std::size_t wrong_recipe_frames = 0, wrong_recipe_mismatch = 0, wrong_recipe_named = 0, wrong_recipe_named_right = 0;
+  std::size_t false_mismatch = 0;
 };
 
 EvalSummary summarize(const std::vector<FrameEval>& frames);

@@ -1,0 +1,64 @@
+// palletd detection: does the layer agree with the recipe? The boxes' sides measured on the frame
+// (the outline and the seams on both opposite sides of a box) against the recipe's formats, and
+// which of several recipes fits a frame best.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "palletd/core/geometry.hpp"
+
+namespace palletd {
+
+struct DetectedBox;
+
+/// When a layer counts as built of other cartons than the recipe's (config detection.recipe_check).
+struct RecipeCheckParams {
+  bool enabled = true;
+  /// A format's measured side may run below nominal by max(this, undersize_pitches x the pixel
+  /// pitch): cartons are not built smaller than their format, but a rounded top edge and the
+  /// pixel footprint shave a little off the measured top [mm].
+  double undersize_tolerance_mm = 6.0;
+  double undersize_pitches = 1.0;
+  /// ... and above nominal by the oversize share real cartons run to (LayoutParams::refine
+  /// max_oversize) plus max(this, oversize_pitches x the pixel pitch) [mm].
+  double oversize_tolerance_mm = 5.0;
+  double oversize_pitches = 1.0;
+  /// Boxes of a format with a side measured along an axis before that side is judged: one box's
+  /// pair of sides can be misread (a label edge, a dent), the median of several is the carton.
+  int min_boxes_measured = 2;
+};
+
+/// One format of the recipe against what the frame shows of it.
+struct FormatCheck {
+  int format = 0;
+  double nominal_long_m = 0.0, nominal_short_m = 0.0;
+  /// Median side lengths measured over the format's boxes [m]; -1 = fewer than
+  /// min_boxes_measured boxes showed both sides along that axis.
+  double measured_long_m = -1.0, measured_short_m = -1.0;
+  int boxes_long = 0, boxes_short = 0;  ///< boxes measured along each axis
+  bool agrees = true;                   ///< both medians, where measured, within the tolerance
+};
+
+/// The verdict on the whole layer (Detection::recipe_check).
+struct RecipeCheck {
+  bool checked = false;  ///< at least one format had a side measured on enough boxes
+  bool agrees = true;    ///< every measured format within the tolerance
+  /// Some format measured and within the tolerance, or a disagreeing format's boxes measure as
+  /// another format of the recipe: the layout put boxes of a format the layer does not hold
+  /// (flagged), rather than the layer being of other cartons.
+  bool some_agree = false;
+  std::vector<FormatCheck> formats;
+  std::string reason;    ///< a sentence when !agrees: which format, measured against nominal
+  /// Recipe number of the configured recipe that fits the frame best (best_fitting_recipe());
+  /// null when none was sought or none fits.
+  std::optional<int> best_recipe;
+};
+
+/// Measured sides of the boxes against their formats. `pixel_pitch_m`: the layer's pixel pitch;
+/// `max_oversize`: the share cartons may run over their format (RefineParams::max_oversize).
+RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vector<BoxFormat>& formats,
+                         const RecipeCheckParams& params, double pixel_pitch_m, double max_oversize);
+
+}  // namespace palletd

@@ -1,0 +1,24 @@
+// palletd detection: which of the configured recipes a frame shows. Run where a layer disagreed
+// with its recipe (status recipe_mismatch), so that the PLC can ask for the right one.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "palletd/detection/detection.hpp"
+
+namespace palletd {
+
+/// A recipe as the detection sees it: its number and its formats.
+struct RecipeCandidate {
+  int number = 0;
+  std::vector<BoxFormat> formats;
+};
+
+/// The candidate whose cartons the frame shows best: detect() with each; among those whose layout
+/// is ok and whose measured sides agree with their formats, the highest layout confidence (the
+/// first listed on a tie). Null when none fits. Costs one detection per candidate.
+std::optional<int> best_fitting_recipe(const Frame& frame, const std::vector<RecipeCandidate>& candidates,
+                                       const DetectionParams& params, DetectionWorkspace& workspace);
+
+}  // namespace palletd

@@ -1,0 +1,81 @@
+// check_recipe(): the boxes' measured side lengths against the recipe's formats.
+#include "palletd/detection/recipe_check.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "palletd/detection/detection.hpp"
+
+namespace palletd {
+
+namespace {
+
+/// Median of the positive values; -1 with fewer than `min_count`.
+double median_of(std::vector<double> v, int min_count) {
+  if (v.empty() || static_cast<int>(v.size()) < std::max(1, min_count)) return -1.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Whether a measured side (-1: not measured) lies within the tolerance of its nominal length.
+bool within(double measured_m, double nominal_m, const RecipeCheckParams& p, double pitch_m, double max_oversize) {
+  if (measured_m <= 0.0) return true;
+  const double under_m = std::max(1e-3 * p.undersize_tolerance_mm, p.undersize_pitches * pitch_m);
+  const double over_m = std::max(1e-3 * p.oversize_tolerance_mm, p.oversize_pitches * pitch_m);
+  return measured_m >= nominal_m - under_m && measured_m <= nominal_m * (1.0 + max_oversize) + over_m;
+}
+
+std::string describe(const FormatCheck& f) {
+  auto mm = [](double m) { return m > 0.0 ? std::to_string(static_cast<int>(std::lround(1e3 * m))) : std::string("?"); };
+  return "the boxes of format " + std::to_string(f.format) + " (" + mm(f.nominal_long_m) + " x " +
+         mm(f.nominal_short_m) + " mm) measure " + mm(f.measured_long_m) + " x " + mm(f.measured_short_m) + " mm";
+}
+
+}  // namespace
+
+RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vector<BoxFormat>& formats,
+                         const RecipeCheckParams& params, double pixel_pitch_m, double max_oversize) {
+  RecipeCheck out;
+  if (!params.enabled) return out;
+  for (std::size_t f = 0; f < formats.size(); ++f) {
+    std::vector<double> along_long, along_short;
+    for (const DetectedBox& b : boxes) {
+      if (b.format != static_cast<int>(f) || b.partly_unseen) continue;
+      if (b.measured_long_m > 0.0) along_long.push_back(b.measured_long_m);
+      if (b.measured_short_m > 0.0) along_short.push_back(b.measured_short_m);
+    }
+    FormatCheck c;
+    c.format = static_cast<int>(f);
+    c.nominal_long_m = formats[f].long_m;
+    c.nominal_short_m = formats[f].short_m;
+    c.boxes_long = static_cast<int>(along_long.size());
+    c.boxes_short = static_cast<int>(along_short.size());
+    c.measured_long_m = median_of(along_long, params.min_boxes_measured);
+    c.measured_short_m = median_of(along_short, params.min_boxes_measured);
+    if (c.measured_long_m > 0.0 || c.measured_short_m > 0.0) out.checked = true;
+    c.agrees = within(c.measured_long_m, c.nominal_long_m, params, pixel_pitch_m, max_oversize) &&
+               within(c.measured_short_m, c.nominal_short_m, params, pixel_pitch_m, max_oversize);
+    const bool measured = c.measured_long_m > 0.0 || c.measured_short_m > 0.0;
+    if (c.agrees && measured) out.some_agree = true;
+    // Boxes that measure as another format of the recipe: the layout chose the wrong format.
+    for (std::size_t g = 0; g < formats.size() && !c.agrees; ++g) {
+      if (g != f && within(c.measured_long_m, formats[g].long_m, params, pixel_pitch_m, max_oversize) &&
+          within(c.measured_short_m, formats[g].short_m, params, pixel_pitch_m, max_oversize))
+        out.some_agree = true;
+    }
+    if (!c.agrees) {
+      out.agrees = false;
+      out.reason += (out.reason.empty() ? "" : "; ") + describe(c);
+    }
+    out.formats.push_back(c);
+  }
+  if (!out.agrees) {
+    out.reason += out.some_agree ? ": boxes of a format the layer may not hold"
+                                 : ": the layer is not built of the recipe's cartons";
+  }
+  return out;
+}
+
+}  // namespace palletd
