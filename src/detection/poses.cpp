@@ -87,6 +87,8 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<LayoutBox>& boxes,
     d.partly_unseen = b.partly_unseen;
     d.measured_long_m = b.evidence.measured_long_m;
     d.measured_short_m = b.evidence.measured_short_m;
+    d.run_long_m = b.evidence.run_long_m;
+    d.run_short_m = b.evidence.run_short_m;
     ScoreTerms& t = d.score_terms;
     t.support = b.score;
     t.inside = b.evidence.inside;

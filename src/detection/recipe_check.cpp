@@ -19,6 +19,12 @@ double median_of(std::vector<double> v, int min_count) {
   return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/// Whether an upper bound of a side (-1: none) is not below the nominal length's lower tolerance.
+bool not_under(double bound_m, double nominal_m, const RecipeCheckParams& p, double pitch_m) {
+  if (bound_m <= 0.0) return true;
+  return bound_m >= nominal_m - std::max(1e-3 * p.undersize_tolerance_mm, p.undersize_pitches * pitch_m);
+}
+
 /// Whether a measured side (-1: not measured) lies within the tolerance of its nominal length.
 bool within(double measured_m, double nominal_m, const RecipeCheckParams& p, double pitch_m, double max_oversize) {
   if (measured_m <= 0.0) return true;
@@ -29,8 +35,11 @@ bool within(double measured_m, double nominal_m, const RecipeCheckParams& p, dou
 
 std::string describe(const FormatCheck& f) {
   auto mm = [](double m) { return m > 0.0 ? std::to_string(static_cast<int>(std::lround(1e3 * m))) : std::string("?"); };
+  const bool by_rows = f.measured_long_m <= 0.0 && f.measured_short_m <= 0.0;
+  const double l = f.measured_long_m > 0.0 ? f.measured_long_m : f.run_long_m;
+  const double s = f.measured_short_m > 0.0 ? f.measured_short_m : f.run_short_m;
   return "the boxes of format " + std::to_string(f.format) + " (" + mm(f.nominal_long_m) + " x " +
-         mm(f.nominal_short_m) + " mm) measure " + mm(f.measured_long_m) + " x " + mm(f.measured_short_m) + " mm";
+         mm(f.nominal_short_m) + " mm) measure " + (by_rows ? "at most " : "") + mm(l) + " x " + mm(s) + " mm";
 }
 
 }  // namespace
@@ -39,12 +48,15 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
                          const RecipeCheckParams& params, double pixel_pitch_m, double max_oversize) {
   RecipeCheck out;
   if (!params.enabled) return out;
+  std::vector<double> residuals;
   for (std::size_t f = 0; f < formats.size(); ++f) {
-    std::vector<double> along_long, along_short;
+    std::vector<double> along_long, along_short, run_long, run_short;
     for (const DetectedBox& b : boxes) {
       if (b.format != static_cast<int>(f) || b.partly_unseen) continue;
       if (b.measured_long_m > 0.0) along_long.push_back(b.measured_long_m);
       if (b.measured_short_m > 0.0) along_short.push_back(b.measured_short_m);
+      if (b.run_long_m > 0.0) run_long.push_back(b.run_long_m);
+      if (b.run_short_m > 0.0) run_short.push_back(b.run_short_m);
     }
     FormatCheck c;
     c.format = static_cast<int>(f);
@@ -54,9 +66,20 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
     c.boxes_short = static_cast<int>(along_short.size());
     c.measured_long_m = median_of(along_long, params.min_boxes_measured);
     c.measured_short_m = median_of(along_short, params.min_boxes_measured);
-    if (c.measured_long_m > 0.0 || c.measured_short_m > 0.0) out.checked = true;
+    // Distance of a measured side from the band real cartons are built in: nominal .. + oversize.
+    auto off_band = [&](double measured_m, double nominal_m) {
+      return std::max({0.0, nominal_m - measured_m, measured_m - nominal_m * (1.0 + max_oversize)});
+    };
+    if (c.measured_long_m > 0.0) residuals.push_back(off_band(c.measured_long_m, c.nominal_long_m));
+    if (c.measured_short_m > 0.0) residuals.push_back(off_band(c.measured_short_m, c.nominal_short_m));
+    if (c.measured_long_m < 0.0) c.run_long_m = median_of(run_long, params.min_boxes_measured);
+    if (c.measured_short_m < 0.0) c.run_short_m = median_of(run_short, params.min_boxes_measured);
+    if (c.measured_long_m > 0.0 || c.measured_short_m > 0.0 || c.run_long_m > 0.0 || c.run_short_m > 0.0)
+      out.checked = true;
     c.agrees = within(c.measured_long_m, c.nominal_long_m, params, pixel_pitch_m, max_oversize) &&
-               within(c.measured_short_m, c.nominal_short_m, params, pixel_pitch_m, max_oversize);
+               within(c.measured_short_m, c.nominal_short_m, params, pixel_pitch_m, max_oversize) &&
+               not_under(c.run_long_m, c.nominal_long_m, params, pixel_pitch_m) &&
+               not_under(c.run_short_m, c.nominal_short_m, params, pixel_pitch_m);
     const bool measured = c.measured_long_m > 0.0 || c.measured_short_m > 0.0;
     if (c.agrees && measured) out.some_agree = true;
     // Boxes that measure as another format of the recipe: the layout chose the wrong format.
@@ -71,6 +94,7 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
     }
     out.formats.push_back(c);
   }
+  out.size_residual_m = median_of(residuals, 1);
   if (!out.agrees) {
     out.reason += out.some_agree ? ": boxes of a format the layer may not hold"
                                  : ": the layer is not built of the recipe's cartons";

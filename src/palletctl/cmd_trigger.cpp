@@ -58,6 +58,7 @@ void print_result(const modbus::PlcClient::TriggerResult& r) {
               r.status.poses_in_camera_frame ? "camera" : "base", r.handshake_ms);
   if (rec.status == modbus::ResultStatus::kFailed) {
     std::printf("  error code %u, detail %u\n", static_cast<unsigned>(r.status.error), r.status.error_detail);
+    if (rec.best_recipe != 0) std::printf("  the frame shows the cartons of recipe %u\n", rec.best_recipe);
   }
   std::string flags;
   if (rec.ambiguous) flags += " ambiguous";

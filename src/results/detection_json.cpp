@@ -64,6 +64,7 @@ Json recipe_check_json(const RecipeCheck& c) {
                        {"nominal_mm", {1e3 * f.nominal_long_m, 1e3 * f.nominal_short_m}},
                        {"measured_mm", {mm(f.measured_long_m), mm(f.measured_short_m)}},
                        {"boxes_measured", {f.boxes_long, f.boxes_short}},
+                       {"row_bound_mm", {mm(f.run_long_m), mm(f.run_short_m)}},
                        {"agrees", f.agrees}});
   }
   return {{"checked", c.checked},

@@ -63,6 +63,21 @@ TEST_CASE("one measured box is no verdict, and a coarse pitch widens the toleran
   CHECK(check_recipe(boxes, kFormats, off, 0.003, 0.06).agrees);
 }
 
+TEST_CASE("rows of pressed boxes bound the size from above: too small disagrees, gaps do not", "[recipe_check]") {
+  auto row_box = [](double run_long_m) {
+    DetectedBox b = measured_box(0, -1.0, -1.0);
+    b.run_long_m = run_long_m;
+    return b;
+  };
+  const RecipeCheck small = check_recipe({row_box(0.382), row_box(0.382)}, kFormats, RecipeCheckParams{}, kPitch_m, 0.06);
+  CHECK(small.checked);
+  CHECK_FALSE(small.agrees);
+  CHECK(small.formats[0].run_long_m == Approx(0.382));
+  CHECK(small.reason.find("measure at most 382 x ? mm") != std::string::npos);
+  // 60 mm over nominal: gaps the camera did not show count in, so a row never says "larger".
+  CHECK(check_recipe({row_box(0.46), row_box(0.46)}, kFormats, RecipeCheckParams{}, kPitch_m, 0.06).agrees);
+}
+
 TEST_CASE("a format that fits beside one that does not is a doubtful layout, not another recipe", "[recipe_check]") {
   const RecipeCheck c = check_recipe({measured_box(0, 0.405, 0.303), measured_box(0, 0.404, 0.302),
                                       measured_box(1, 0.560, 0.401), measured_box(1, 0.561, 0.402)},

@@ -27,7 +27,7 @@ TEST_CASE("status and result blocks read as holding and input registers (FC3, FC
   std::uint16_t many[125] = {};
   CHECK(modbus_read_registers(c.ctx, 0, 125, many) == 125);
   CHECK(modbus_read_input_registers(c.ctx, 406, 125, many) == 125);  // up to 530
-  CHECK(modbus_read_registers(c.ctx, 531, 2, many) == 2);              // across the gap 532..539
+  CHECK(modbus_read_registers(c.ctx, 531, 2, many) == 2);              // the best recipe and across the gap 533..539
   CHECK(modbus_read_input_registers(c.ctx, 778, 125, many) == 125);  // up to 902
   CHECK(modbus_read_registers(c.ctx, 902, 2, many) == -1);
   CHECK(errno == EMBXILADD);

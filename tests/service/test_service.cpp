@@ -162,6 +162,38 @@ TEST_CASE("an unknown recipe fails the trigger with error code 5 and its number 
   CHECK((result->status.status_word & palletd::modbus::kStError) != 0);
 }
 
+TEST_CASE("a layer of other cartons fails with detail 8 and names the configured recipe that fits") {
+  TempFrames frames({"22_block_600x400_xtion"});
+  palletd::Config config = demo_config(frames.dir);
+  config.formats.push_back(palletd::BoxFormat{0.420, 0.315, "420x315", 0.0});
+  config.recipes.push_back({20, "420x315", {static_cast<int>(config.formats.size()) - 1}});
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
+  REQUIRE(plc.connect().ok());
+  auto result = plc.trigger(20, 8, 10s);
+  REQUIRE(result.ok());
+  const palletd::modbus::ResultRecord& rec = result->result.record;
+  CHECK(rec.status == ResultStatus::kFailed);
+  CHECK(rec.boxes.empty());
+  CHECK(result->status.error == ErrorCode::kDetectionFailed);
+  CHECK(result->status.error_detail == static_cast<std::uint16_t>(palletd::modbus::DetectionFailure::kRecipeMismatch));
+  // The recipe named lists the frame's 600 x 400 cartons.
+  const palletd::Recipe* named = nullptr;
+  for (const auto& r : config.recipes)
+    if (r.number == rec.best_recipe) named = &r;
+  REQUIRE(named != nullptr);
+  bool has_600x400 = false;
+  for (int f : named->formats) has_600x400 = has_600x400 || config.formats[static_cast<std::size_t>(f)].name == "600x400";
+  CHECK(has_600x400);
+  // The right recipe on the same frame answers with boxes and no name.
+  auto right = plc.trigger(static_cast<std::uint16_t>(config.recipes.front().number), 9, 10s);
+  REQUIRE(right.ok());
+  CHECK(right->result.record.status == ResultStatus::kOk);
+  CHECK(right->result.record.best_recipe == 0);
+  service.stop();
+}
+
 TEST_CASE("a camera that is gone fails the trigger, drops CameraOK, and recovers when it returns") {
   TempFrames frames(bundled_stems(1));
   palletd::Config config = demo_config(frames.dir);

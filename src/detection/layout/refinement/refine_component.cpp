@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "refinement/refine_internal.hpp"
+#include "refinement/measured_sizes.hpp"
 #include "refinement/refine_joint.hpp"
 #include "refinement/side_samples.hpp"
 
@@ -302,21 +303,6 @@ std::vector<double> component_turns(const std::vector<SideTurn>& turns, std::siz
   return own;
 }
 
-/// Box k's extent along frame x and y from its own side observations only: the + side's position
-/// minus the - side's, -1 along an axis where either was not measured.
-Eigen::Vector2d measured_extent(const std::vector<SideObservation>& sides, std::size_t k) {
-  Eigen::Vector2d lo(NAN, NAN), hi(NAN, NAN);
-  for (const SideObservation& s : sides) {
-    if (static_cast<std::size_t>(s.box) != k) continue;
-    (s.sign < 0 ? lo : hi)[s.axis] = s.pos_m;
-  }
-  Eigen::Vector2d out(-1.0, -1.0);
-  for (int a = 0; a < 2; ++a) {
-    if (std::isfinite(lo[a]) && std::isfinite(hi[a]) && hi[a] > lo[a]) out[a] = hi[a] - lo[a];
-  }
-  return out;
-}
-
 }  // namespace
 
 PointGrid::PointGrid(const std::vector<Eigen::Vector2f>& pts, double cell_m) : pts_(pts), cell_(cell_m) {
@@ -378,8 +364,12 @@ ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWit
     if (!fitted[k].center.allFinite() || shift.norm() > kMaxShiftShare * box.short_m)
       continue;  // wrong association
     const Eigen::Vector2d measured = measured_extent(sides, k);
-    boxes[idx[k]].evidence.measured_long_m = ev[k].along_x ? measured.x() : measured.y();
-    boxes[idx[k]].evidence.measured_short_m = ev[k].along_x ? measured.y() : measured.x();
+    const Eigen::Vector2d run = run_extent(sides, contacts, fitted, k);
+    auto& e = boxes[idx[k]].evidence;
+    e.measured_long_m = ev[k].along_x ? measured.x() : measured.y();
+    e.measured_short_m = ev[k].along_x ? measured.y() : measured.x();
+    e.run_long_m = ev[k].along_x ? run.x() : run.y();
+    e.run_short_m = ev[k].along_x ? run.y() : run.x();
     boxes[idx[k]].evidence.position_sigma_m = fitted[k].sigma_center.maxCoeff();
     boxes[idx[k]].evidence.refine_shift_m = shift.norm();
     box.center = cf.frame.to_layer(fitted[k].center);

@@ -108,6 +108,9 @@ struct DetectedBox {
   /// Side lengths measured from the box's own opposite sides (outline or seams), long and short
   /// [m]; -1 where a side of the pair was not seen (JSON `measured_size`, null there).
   double measured_long_m = -1.0, measured_short_m = -1.0;
+  /// Upper bounds where its own sides were not both seen: its share of a row of boxes pressed
+  /// together between two seen sides (gaps not seen count in) [m]; -1 where there is none.
+  double run_long_m = -1.0, run_short_m = -1.0;
   Box2d in_layer;        ///< the same box in the layer frame
   std::optional<Eigen::Vector3d> base_position;  ///< [m] when T_base_camera is known
   std::optional<double> base_yaw_deg;            ///< [deg] (-180, 180]

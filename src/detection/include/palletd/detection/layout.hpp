@@ -235,6 +235,10 @@ struct BoxEvidence {
   /// check compares them with the format (recipe_check.hpp).
   double measured_long_m = -1.0;
   double measured_short_m = -1.0;
+  /// The same as its share of a row of boxes pressed together (no seam seen) between two seen
+  /// sides: an upper bound, as gaps not seen count in [m]; -1 where there is no such row.
+  double run_long_m = -1.0;
+  double run_short_m = -1.0;
 };
 
 /// One box of a layout: where it lies (layer frame) and how well the measurements support it.

@@ -22,9 +22,11 @@ struct RecipeCheckParams {
   double undersize_tolerance_mm = 6.0;
   double undersize_pitches = 1.0;
   /// ... and above nominal by the oversize share real cartons run to (LayoutParams::refine
-  /// max_oversize) plus max(this, oversize_pitches x the pixel pitch) [mm].
+  /// max_oversize) plus max(this, oversize_pitches x the pixel pitch) [mm]: a stereo camera
+  /// fattens a depth edge toward the lower side by up to two pixels, so a top measures up to four
+  /// pixels larger on both axes (a time-of-flight camera's mixed pixels do not).
   double oversize_tolerance_mm = 5.0;
-  double oversize_pitches = 1.0;
+  double oversize_pitches = 4.0;
   /// Boxes of a format with a side measured along an axis before that side is judged: one box's
   /// pair of sides can be misread (a label edge, a dent), the median of several is the carton.
   int min_boxes_measured = 2;
@@ -38,6 +40,10 @@ struct FormatCheck {
   /// min_boxes_measured boxes showed both sides along that axis.
   double measured_long_m = -1.0, measured_short_m = -1.0;
   int boxes_long = 0, boxes_short = 0;  ///< boxes measured along each axis
+  /// Where fewer boxes showed both sides: the median of the boxes' shares of rows pressed
+  /// together (DetectedBox::run_long_m), an upper bound checked against the lower tolerance only
+  /// [m]; -1 = not used.
+  double run_long_m = -1.0, run_short_m = -1.0;
   bool agrees = true;                   ///< both medians, where measured, within the tolerance
 };
 
@@ -51,6 +57,10 @@ struct RecipeCheck {
   bool some_agree = false;
   std::vector<FormatCheck> formats;
   std::string reason;    ///< a sentence when !agrees: which format, measured against nominal
+  /// Median over the formats' measured sides of their distance from the band cartons are built
+  /// in (nominal .. nominal x (1 + max_oversize)) [m]; -1 = nothing measured. Ranks recipes that
+  /// agree alike (best_fitting_recipe()).
+  double size_residual_m = -1.0;
   /// Recipe number of the configured recipe that fits the frame best (best_fitting_recipe());
   /// null when none was sought or none fits.
   std::optional<int> best_recipe;

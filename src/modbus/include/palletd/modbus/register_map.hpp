@@ -396,7 +396,7 @@ std::int32_t get_i32(const std::uint16_t* src, WordOrder order);
 // ---- blocks ----
 /// Writes registers 100..129 and 140..155.
 void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& image);
-/// Writes registers 200..531 with `result_id` in 200 and 530 (unused box slots zeroed), the
+/// Writes registers 200..532 with `result_id` in 200 and 530 (unused box slots zeroed), the
 /// result extension 130..139 and the pick block 540..902 (`result_id` in 540 and 902; the rest
 /// zero without `picking` and for a failed result).
 void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
