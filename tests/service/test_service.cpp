@@ -166,12 +166,15 @@ TEST_CASE("a layer of other cartons fails with detail 8 and names the configured
   TempFrames frames({"22_block_600x400_xtion"});
   palletd::Config config = demo_config(frames.dir);
   config.formats.push_back(palletd::BoxFormat{0.420, 0.315, "420x315", 0.0});
+  // Two candidates to name (a detection each) and room for them under the sanitizers.
+  config.recipes.resize(2);
   config.recipes.push_back({20, "420x315", {static_cast<int>(config.formats.size()) - 1}});
+  config.pipeline.detection_timeout_ms = 120000.0;
   palletd::Service service(config);
   REQUIRE(service.start().ok());
   palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
   REQUIRE(plc.connect().ok());
-  auto result = plc.trigger(20, 8, 10s);
+  auto result = plc.trigger(20, 8, 120s);
   REQUIRE(result.ok());
   const palletd::modbus::ResultRecord& rec = result->result.record;
   CHECK(rec.status == ResultStatus::kFailed);
@@ -187,7 +190,7 @@ TEST_CASE("a layer of other cartons fails with detail 8 and names the configured
   for (int f : named->formats) has_600x400 = has_600x400 || config.formats[static_cast<std::size_t>(f)].name == "600x400";
   CHECK(has_600x400);
   // The right recipe on the same frame answers with boxes and no name.
-  auto right = plc.trigger(static_cast<std::uint16_t>(config.recipes.front().number), 9, 10s);
+  auto right = plc.trigger(static_cast<std::uint16_t>(config.recipes.front().number), 9, 120s);
   REQUIRE(right.ok());
   CHECK(right->result.record.status == ResultStatus::kOk);
   CHECK(right->result.record.best_recipe == 0);
