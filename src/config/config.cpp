@@ -157,7 +157,12 @@ std::vector<std::string> config_differences(const Config& a, const Config& b) {
   if (!std::equal(a.formats.begin(), a.formats.end(), b.formats.begin(), b.formats.end(), same_format))
     diffs.emplace_back("formats");
   const auto same_recipe = [](const Recipe& x, const Recipe& y) {
-    return x.number == y.number && x.name == y.name && x.formats == y.formats;
+    const auto same_range = [](const std::optional<SizeRange>& p, const std::optional<SizeRange>& q) {
+      return p.has_value() == q.has_value() &&
+             (!p || (p->long_min_m == q->long_min_m && p->long_max_m == q->long_max_m &&
+                     p->short_min_m == q->short_min_m && p->short_max_m == q->short_max_m));
+    };
+    return x.number == y.number && x.name == y.name && x.formats == y.formats && same_range(x.size_range, y.size_range);
   };
   if (!std::equal(a.recipes.begin(), a.recipes.end(), b.recipes.begin(), b.recipes.end(), same_recipe))
     diffs.emplace_back("recipes");
@@ -200,7 +205,7 @@ std::vector<std::string> config_key_paths() {
 std::vector<RecipeCandidate> recipe_candidates(const Config& config, int except) {
   std::vector<RecipeCandidate> out;
   for (const Recipe& r : config.recipes) {
-    if (r.number == except) continue;
+    if (r.number == except || r.size_range) continue;  // a size range fits any carton: it names none
     RecipeCandidate c{r.number, {}};
     for (int index : r.formats) c.formats.push_back(config.formats[static_cast<std::size_t>(index)]);
     out.push_back(std::move(c));

@@ -2,6 +2,8 @@
 // formats and recipes, network addresses.
 #include <cmath>
 #include <map>
+#include <tuple>
+#include <utility>
 
 #include "config_yaml.hpp"
 
@@ -64,6 +66,33 @@ std::vector<BoxFormat> read_formats(const Context& ctx, const YAML::Node& node, 
   return formats;
 }
 
+namespace {
+
+/// One side's [min, max] of a size range, millimetres in, metres out.
+std::pair<double, double> read_side_range(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  if (!node.IsSequence() || node.size() != 2)
+    fail(ctx, node, path, "expected [min, max] in millimetres, got " + describe(node));
+  const double lo = read_double(ctx, node[0], index_path(path, 0));
+  const double hi = read_double(ctx, node[1], index_path(path, 1));
+  if (!(lo > 0.0 && lo <= hi && hi <= 5000.0)) fail(ctx, node, path, "must be 0 < min <= max <= 5000");
+  return {lo / 1000.0, hi / 1000.0};
+}
+
+/// size_range_mm: {long: [min, max], short: [min, max]}: cartons nobody entered.
+SizeRange read_size_range(const Context& ctx, const YAML::Node& node, const std::string& path) {
+  if (!node.IsMap()) fail(ctx, node, path, "expected {long: [min, max], short: [min, max]}, got " + describe(node));
+  check_keys(ctx, node, path, {"long", "short"});
+  SizeRange range;
+  std::tie(range.long_min_m, range.long_max_m) = read_side_range(ctx, require(ctx, node, path, "long"), join(path, "long"));
+  std::tie(range.short_min_m, range.short_max_m) =
+      read_side_range(ctx, require(ctx, node, path, "short"), join(path, "short"));
+  if (range.short_min_m > range.long_max_m)
+    fail(ctx, node, join(path, "short"), "the short side's minimum exceeds the long side's maximum");
+  return range;
+}
+
+}  // namespace
+
 std::vector<Recipe> read_recipes(const Context& ctx, const YAML::Node& node, const std::string& path,
                                  const std::vector<BoxFormat>& formats) {
   std::vector<Recipe> recipes;
@@ -74,7 +103,7 @@ std::vector<Recipe> read_recipes(const Context& ctx, const YAML::Node& node, con
     const YAML::Node entry = node[i];
     const std::string epath = index_path(path, i);
     if (!entry.IsMap()) fail(ctx, entry, epath, "expected a mapping {number, name, formats}, got " + describe(entry));
-    check_keys(ctx, entry, epath, {"number", "name", "formats"});
+    check_keys(ctx, entry, epath, {"number", "name", "formats", "size_range_mm"});
     Recipe r;
     const YAML::Node v = require(ctx, entry, epath, "number");
     const long long number = read_integer(ctx, v, join(epath, "number"));
@@ -85,6 +114,12 @@ std::vector<Recipe> read_recipes(const Context& ctx, const YAML::Node& node, con
            "recipe number " + std::to_string(r.number) + " is already used by " + index_path(path, it->second));
     seen.emplace(r.number, i);
     if (const YAML::Node name = entry["name"]) r.name = read_string(ctx, name, join(epath, "name"));
+    if (const YAML::Node range = entry["size_range_mm"]) {
+      if (entry["formats"]) fail(ctx, range, join(epath, "size_range_mm"), "a recipe has formats or a size range, not both");
+      r.size_range = read_size_range(ctx, range, join(epath, "size_range_mm"));
+      recipes.push_back(std::move(r));
+      continue;
+    }
     const std::string fpath = join(epath, "formats");
     const YAML::Node names = require(ctx, entry, epath, "formats");
     const std::vector<std::string> list = read_strings(ctx, names, fpath);

@@ -15,6 +15,7 @@
 #include "palletd/detection/recipe_check.hpp"
 #include "poses.hpp"
 #include "roi.hpp"
+#include "top_layer.hpp"
 
 namespace palletd {
 
@@ -98,6 +99,21 @@ void score_boxes(const LayoutResult& layout, Detection& out) {
 
 }  // namespace
 
+std::string cloud_in_region(const Frame& frame, const DetectionParams& params, DetectionWorkspace& workspace) {
+  if (!workspace.rays.matches(frame.intrinsics)) workspace.rays = RayTable(frame.intrinsics);
+  to_organized_cloud(frame, workspace.rays, workspace.cloud);
+  if (!params.roi) return {};
+  return apply_region_of_interest(*params.roi, frame.T_base_camera, workspace.cloud);
+}
+
+LayerResult top_layer(const Frame& frame, const OrganizedCloud& cloud, const DetectionParams& params,
+                      double smallest_box_m2) {
+  const double min_piece_m2 = params.layer.min_component_box_fraction * smallest_box_m2;
+  PlaneParams plane_params = params.plane;
+  plane_params.min_plane_area_m2 = std::max(plane_params.min_plane_area_m2, min_piece_m2);
+  return extract_layer(frame, cloud, plane_params, params.layer, params.contour, min_piece_m2);
+}
+
 Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, const DetectionParams& params,
                  RayTable* rays) {
   DetectionWorkspace workspace;
@@ -130,24 +146,16 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
 
   // Stage 0: organized cloud into the caller's workspace (rays and cloud reused frame after frame).
   auto t0 = Clock::now();
-  if (!workspace.rays.matches(frame.intrinsics)) workspace.rays = RayTable(frame.intrinsics);
-  OrganizedCloud& cloud = workspace.cloud;
-  to_organized_cloud(frame, workspace.rays, cloud);
   out.roi = params.roi;
-  if (params.roi) {
-    if (std::string problem = apply_region_of_interest(*params.roi, frame.T_base_camera, cloud); !problem.empty())
-      return finish(DetectionStatus::kBadFrame, problem);
-  }
+  if (std::string problem = cloud_in_region(frame, params, workspace); !problem.empty())
+    return finish(DetectionStatus::kBadFrame, problem);
+  const OrganizedCloud& cloud = workspace.cloud;
   out.timing_ms["cloud"] = ms_since(t0);
 
-  // Stages 1-5: plane, layer, components, crust contour. The top level holds at least the
-  // smallest box: a smaller plane above it is no layer.
+  // Stages 1-5: plane, layer, components, crust contour.
   double smallest_box_m2 = std::numeric_limits<double>::max();
   for (const auto& f : formats) smallest_box_m2 = std::min(smallest_box_m2, f.long_m * f.short_m);
-  const double min_piece_m2 = params.layer.min_component_box_fraction * smallest_box_m2;
-  PlaneParams plane_params = params.plane;
-  plane_params.min_plane_area_m2 = std::max(plane_params.min_plane_area_m2, min_piece_m2);
-  out.layer = extract_layer(frame, cloud, plane_params, params.layer, params.contour, min_piece_m2);
+  out.layer = top_layer(frame, cloud, params, smallest_box_m2);
   const LayerDiagnostics& diag = out.layer.diagnostics;
   out.timing_ms["plane"] = diag.t_plane_ms;
   out.timing_ms["layer"] = diag.t_layer_ms;

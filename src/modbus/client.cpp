@@ -119,9 +119,10 @@ Expected<PlcClient::TriggerResult> PlcClient::run_handshake(std::uint16_t contro
     if (Status s = read(kResultExtStart, kResultExtCount, image); !s) return Error{s.error()};
     if (Status s = read(kResultStart, kResultCount, image); !s) return Error{s.error()};
     if (Status s = read(kPickStart, kPickCount, image); !s) return Error{s.error()};
+    if (Status s = read(kSizeStart, kSizeCount, image); !s) return Error{s.error()};
     out.result = decode_result(image, out.word_order);
     out.status = decode_status(image, out.word_order);
-    // Several reads belong together only when the result id in 200, 530, 540 and 902 agrees.
+    // Several reads belong together only when the result id in 200, 530, 540, 902 and 974 agrees.
     if (out.result.ids_agree() && out.result.record.request_id == request_id) break;
     if (Clock::now() >= deadline) return Error{"timed out waiting for the result of request " +
                                                std::to_string(request_id)};

@@ -118,6 +118,11 @@ void clear_result(RegisterImage& image) {
 
 namespace {
 
+/// A side length in 0.1 mm, saturated to 0..65535.
+std::uint16_t tenth_mm_u16(double m) {
+  return static_cast<std::uint16_t>(std::clamp<std::int32_t>(metres_to_tenth_mm(m), 0, 65535));
+}
+
 std::int16_t as_i16(std::uint16_t v) {
   return v <= 0x7FFF ? static_cast<std::int16_t>(v) : static_cast<std::int16_t>(-static_cast<int>(0xFFFF - v) - 1);
 }
@@ -188,6 +193,7 @@ void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrde
   if (result.layer_clipped) flags |= kResLayerClipped;
   if (result.outline_unobserved) flags |= kResOutlineUnobserved;
   if (result.height_off_layers) flags |= kResHeightOffLayers;
+  if (result.formats_measured) flags |= kResFormatsMeasured;
   r[kRegResultFlags] = flags;
   r[kRegResultDetail] = static_cast<std::uint16_t>(result.detail);
   std::uint16_t layer_info = 0;
@@ -219,12 +225,15 @@ void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrde
     slot[7] = b.format;
     slot[8] = unit_to_permille(b.score);
     slot[9] = b.pick_index;
+    r[kSizeStart + kSizeStride * i] = tenth_mm_u16(b.long_m);
+    r[kSizeStart + kSizeStride * i + 1] = tenth_mm_u16(b.short_m);
   }
   // A failed result has no boxes to pick (its record may still carry the detection's picks).
   if (result.picking && result.status != ResultStatus::kFailed) encode_picks(result, reported, order, r);
   r[kRegPickResultId] = result_id;
   r[kResultIdCopy] = result_id;
   r[kPickIdCopy] = result_id;
+  r[kSizeIdCopy] = result_id;
 }
 
 ControlRecord decode_control(const RegisterImage& image) {
@@ -243,6 +252,7 @@ namespace {
 void decode_picks(const std::uint16_t* r, WordOrder order, DecodedResult& d) {
   d.pick_result_id = r[kRegPickResultId];
   d.pick_result_id_copy = r[kPickIdCopy];
+  d.size_result_id_copy = r[kSizeIdCopy];
   ResultRecord& rec = d.record;
   rec.picking = (r[kRegPickFlags] & kPickGripper) != 0;
   rec.groups_found = r[kRegGroupsFound];
@@ -279,6 +289,7 @@ DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
   rec.layer_clipped = (flags & kResLayerClipped) != 0;
   rec.outline_unobserved = (flags & kResOutlineUnobserved) != 0;
   rec.height_off_layers = (flags & kResHeightOffLayers) != 0;
+  rec.formats_measured = (flags & kResFormatsMeasured) != 0;
   rec.detail = static_cast<ResultDetail>(r[kRegResultDetail]);
   if ((r[kRegLayerInfoFlags] & kLayerHeightKnown) != 0)
     rec.height_above_pallet_m = tenth_mm_to_metres(get_i32(r + kRegHeightAbovePallet, order));
@@ -304,6 +315,8 @@ DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
     b.format = slot[7];
     b.score = slot[8] * 1e-3;
     b.pick_index = slot[9];
+    b.long_m = r[kSizeStart + kSizeStride * i] * 1e-4;
+    b.short_m = r[kSizeStart + kSizeStride * i + 1] * 1e-4;
     rec.boxes.push_back(b);
   }
   decode_picks(r, order, d);

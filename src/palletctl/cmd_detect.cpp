@@ -38,7 +38,7 @@ Detection bad_frame(const std::string& message) {
 
 int run_detect(const DetectArgs& a) {
   DetectSetup setup = make_detect_setup(a.config, a.recipe, a.boxes);
-  if (setup.formats.empty()) {
+  if (setup.formats.empty() && !setup.size_range) {
     spdlog::error("no box format: give --box LxW (mm) or --config FILE --recipe N");
     return 2;
   }
@@ -54,7 +54,7 @@ int run_detect(const DetectArgs& a) {
       detection = bad_frame(frame.error());
     } else {
       if (setup.T_base_camera) frame->T_base_camera = setup.T_base_camera;
-      detection = detect(*frame, setup.formats, setup.params, workspace);
+      detection = detect_with_setup(*frame, setup, setup.formats, setup.params, workspace);
       name_best_recipe(*frame, setup, setup.params, workspace, detection);
     }
     std::printf("%s\n", detection_to_json_line(detection, stem).c_str());
@@ -68,7 +68,7 @@ int run_detect(const DetectArgs& a) {
       // Re-run the first half with a trace: detect() itself keeps no intermediate images.
       OrganizedCloud cloud;
       to_organized_cloud(*frame, workspace.rays, cloud);
-      double smallest_m2 = 1e9;
+      double smallest_m2 = setup.size_range ? setup.size_range->long_min_m * setup.size_range->short_min_m : 1e9;
       for (const auto& f : setup.formats) smallest_m2 = std::min(smallest_m2, f.long_m * f.short_m);
       LayerTrace trace;
       const LayerResult layer = extract_layer(*frame, cloud, setup.params.plane, setup.params.layer,

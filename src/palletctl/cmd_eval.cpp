@@ -201,6 +201,9 @@ nlohmann::json to_json(const EvalSummary& s) {
           {"position_max_mm", s.position_max_mm},
           {"yaw_median_deg", s.yaw_median_deg},
           {"yaw_p95_deg", s.yaw_p95_deg},
+          {"size_measured", s.size_measured},
+          {"size_median_mm", s.size_median_mm},
+          {"size_p95_mm", s.size_p95_mm},
           {"pairwise_mean_mm", s.pairwise_mean_mm},
           {"runtime_median_ms", s.runtime_median_ms},
           {"runtime_p95_ms", s.runtime_p95_ms},
@@ -240,7 +243,7 @@ int run_eval(const EvalArgs& a) {
     }
     std::vector<BoxFormat> formats = setup.formats;
     std::vector<std::string> names;
-    if (formats.empty()) {
+    if (formats.empty() && !setup.size_range) {
       // The cell's recipe as the truth file lists it (the detector is given these formats).
       for (std::size_t i = 0; i < truth->recipe_mm.size(); ++i) {
         const auto& mm = truth->recipe_mm[i];
@@ -259,7 +262,7 @@ int run_eval(const EvalArgs& a) {
       detection.message = frame.error();
     } else {
       const DetectionParams params = frame_params(setup.params, stem, a.cell_files);
-      detection = detect(*frame, formats, params, workspace);
+      detection = detect_with_setup(*frame, setup, formats, params, workspace);
       name_best_recipe(*frame, setup, params, workspace, detection);
     }
     EvalOptions options;
@@ -304,6 +307,9 @@ int run_eval(const EvalArgs& a) {
                 s.false_mismatch);
     std::printf("position error median %.2f mm, p95 %.2f mm, max %.2f mm | yaw median %.3f deg, p95 %.3f deg\n",
                 s.position_median_mm, s.position_p95_mm, s.position_max_mm, s.yaw_median_deg, s.yaw_p95_deg);
+    if (s.size_measured > 0)
+      std::printf("measured carton sizes %zu boxes: error median %.1f mm, p95 %.1f mm\n", s.size_measured,
+                  s.size_median_mm, s.size_p95_mm);
     std::printf("pairwise centroid-distance error (paper metric) mean %.2f mm | runtime median %.1f ms, p95 %.1f ms\n",
                 s.pairwise_mean_mm, s.runtime_median_ms, s.runtime_p95_ms);
     print_score_report("box confidence: boxes", confidence.boxes);

@@ -21,6 +21,7 @@ void register_simulate(CLI::App& app);    // palletctl simulate --out DIR -n N (
 void register_roi(CLI::App& app);         // palletctl roi STEM: suggest detection.roi from a frame
 void register_compare(CLI::App& app);     // palletctl compare --config A --config B DIR
 void register_drift(CLI::App& app);       // palletctl drift --config F [--set] [STEM...]
+void register_teach(CLI::App& app);       // palletctl teach STEM: carton sizes measured, as config entries
 
 void register_grab(CLI::App& app);    // palletctl grab --config FILE -n N --out DIR
 void register_record(CLI::App& app);  // palletctl record --config FILE [--out DIR]

@@ -70,14 +70,21 @@ DetectSetup make_detect_setup(const std::string& config_path, int recipe, const 
   if (setup.formats.empty() && recipe > 0) {
     for (const auto& r : config.recipes) {
       if (r.number != recipe) continue;
+      setup.size_range = r.size_range;
       for (int i : r.formats) setup.formats.push_back(config.formats[static_cast<std::size_t>(i)]);
     }
-    if (setup.formats.empty()) {
+    if (setup.formats.empty() && !setup.size_range) {
       spdlog::error("recipe {} is not in {}", recipe, config_path.empty() ? "(no --config)" : config_path);
       throw CLI::RuntimeError(2);
     }
   }
   return setup;
+}
+
+Detection detect_with_setup(const Frame& frame, const DetectSetup& setup, const std::vector<BoxFormat>& formats,
+                            const DetectionParams& params, DetectionWorkspace& workspace) {
+  if (setup.size_range && setup.formats.empty()) return detect_unknown_cartons(frame, *setup.size_range, params, workspace);
+  return detect(frame, formats, params, workspace);
 }
 
 void name_best_recipe(const Frame& frame, const DetectSetup& setup, const DetectionParams& params,

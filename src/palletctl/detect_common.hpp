@@ -30,8 +30,14 @@ struct DetectSetup {
   /// The config's recipes other than --recipe: where a frame's cartons disagree with the
   /// formats (recipe_mismatch), the one that fits best is named (as the daemon does).
   std::vector<RecipeCandidate> other_recipes;
+  /// --recipe names a size-range recipe: cartons nobody entered, sizes measured on each frame.
+  std::optional<SizeRange> size_range;
 };
 DetectSetup make_detect_setup(const std::string& config_path, int recipe, const std::vector<std::string>& boxes);
+
+/// detect() with `formats`, or detect_unknown_cartons() with the setup's size range.
+Detection detect_with_setup(const Frame& frame, const DetectSetup& setup, const std::vector<BoxFormat>& formats,
+                            const DetectionParams& params, DetectionWorkspace& workspace);
 
 /// With a recipe mismatch, sets detection.recipe_check.best_recipe from setup.other_recipes.
 void name_best_recipe(const Frame& frame, const DetectSetup& setup, const DetectionParams& params,

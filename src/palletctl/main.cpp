@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   palletd::register_roi(app);
   palletd::register_compare(app);
   palletd::register_drift(app);
+  palletd::register_teach(app);
   palletd::register_grab(app);
   palletd::register_record(app);
 

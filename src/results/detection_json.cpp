@@ -102,6 +102,7 @@ std::string detection_to_json_line(const Detection& detection, const std::string
   j["layers_remaining"] = detection.layers_remaining ? Json(*detection.layers_remaining) : Json(nullptr);
   j["layout_confidence"] = detection.layout_confidence;
   if (!detection.recipe_check.formats.empty()) j["recipe_check"] = recipe_check_json(detection.recipe_check);
+  if (detection.formats_measured) j["formats_measured"] = true;  // size-range recipe: format -1, size measured
   Json boxes = Json::array();
   for (const DetectedBox& b : detection.boxes) {
     Json box;

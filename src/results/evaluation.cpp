@@ -133,7 +133,12 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
     const bool close = pos_mm <= options.exact_position_mm && yaw_deg <= options.exact_yaw_deg;
     if (!close) within = false;
     const auto f = static_cast<std::size_t>(db.format);
-    const bool format_right = !(f < format_names.size() && !format_names[f].empty() && format_names[f] != tb.format);
+    bool format_right = !(f < format_names.size() && !format_names[f].empty() && format_names[f] != tb.format);
+    if (db.format < 0) {  // a size measured on the frame (size-range recipe) against the carton's
+      const double size_mm = 1e3 * std::max(std::abs(db.long_m - tb.long_m), std::abs(db.short_m - tb.short_m));
+      e.size_errors_mm.push_back(size_mm);
+      format_right = size_mm <= options.measured_size_mm;
+    }
     if (!format_right) e.formats_right = false;
     e.boxes[d].right = close && format_right && e.expect == "boxes";
   }
@@ -180,7 +185,7 @@ bool recipe_matches(const std::vector<BoxFormat>& formats, const Truth& truth) {
 
 EvalSummary summarize(const std::vector<FrameEval>& frames) {
   EvalSummary s;
-  std::vector<double> pos, yaw, runtime, pairwise;
+  std::vector<double> pos, yaw, sizes, runtime, pairwise;
   for (const auto& f : frames) {
     ++s.frames;
     if (f.status == "ok") ++s.ok_frames;
@@ -208,6 +213,7 @@ EvalSummary summarize(const std::vector<FrameEval>& frames) {
     s.matched += f.matched;
     pos.insert(pos.end(), f.position_errors_mm.begin(), f.position_errors_mm.end());
     yaw.insert(yaw.end(), f.yaw_errors_deg.begin(), f.yaw_errors_deg.end());
+    sizes.insert(sizes.end(), f.size_errors_mm.begin(), f.size_errors_mm.end());
     runtime.push_back(f.runtime_ms);
     if (f.matched >= 2) pairwise.push_back(f.pairwise_error_mm);
     if (f.outline_tied == 0) {
@@ -236,6 +242,9 @@ EvalSummary summarize(const std::vector<FrameEval>& frames) {
   s.position_max_mm = pos.empty() ? 0.0 : *std::max_element(pos.begin(), pos.end());
   s.yaw_median_deg = percentile(yaw, 50);
   s.yaw_p95_deg = percentile(yaw, 95);
+  s.size_measured = sizes.size();
+  s.size_median_mm = percentile(sizes, 50);
+  s.size_p95_mm = percentile(sizes, 95);
   double pw = 0.0;
   for (double v : pairwise) pw += v;
   s.pairwise_mean_mm = pairwise.empty() ? 0.0 : pw / static_cast<double>(pairwise.size());

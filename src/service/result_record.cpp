@@ -104,7 +104,9 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
     out.y_m = p.y();
     out.z_m = p.z();
     out.yaw_deg = in_base && b.base_yaw_deg ? *b.base_yaw_deg : axis_yaw_deg(b.long_axis);
-    out.format = static_cast<std::uint16_t>(std::max(0, b.format));
+    out.format = b.format < 0 ? std::uint16_t{0xFFFF} : static_cast<std::uint16_t>(b.format);
+    out.long_m = b.long_m;
+    out.short_m = b.short_m;
     out.score = b.score;
     out.pick_index = static_cast<std::uint16_t>(b.pick_index + 1);
     r.boxes.push_back(out);
@@ -116,6 +118,7 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
   r.layer_z_m = detection.status == DetectionStatus::kOk ? layer_z_m(detection, base_frame) : 0.0;
   r.coverage = detection.coverage;
   r.layout_confidence = detection.layout_confidence;
+  r.formats_measured = detection.formats_measured;
   if (detection.recipe_check.best_recipe)
     r.best_recipe = static_cast<std::uint16_t>(std::clamp(*detection.recipe_check.best_recipe, 0, 65535));
   fill_picks(detection, r);

@@ -335,7 +335,9 @@ class Service::Impl {
     std::vector<BoxFormat> formats;
     for (int index : recipe.formats) formats.push_back(cfg.formats[static_cast<std::size_t>(index)]);
     const auto t0 = Clock::now();
-    Detection detection = detect(frame, formats, cfg.detection, workspace_);
+    Detection detection = recipe.size_range
+                              ? detect_unknown_cartons(frame, *recipe.size_range, cfg.detection, workspace_)
+                              : detect(frame, formats, cfg.detection, workspace_);
     if (detection.status == DetectionStatus::kRecipeMismatch) {  // which recipe the frame shows
       detection.recipe_check.best_recipe =
           best_fitting_recipe(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace_);

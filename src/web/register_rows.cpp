@@ -213,6 +213,7 @@ Json result_rows(const modbus::RegisterImage& image, const modbus::DecodedResult
   if (rec.layer_clipped) flags += "layer clipped by the image border; ";
   if (rec.outline_unobserved) flags += "outline partly unobserved (the layer may go on where the depth ends); ";
   if (rec.height_off_layers) flags += "height not a whole number of box heights; ";
+  if (rec.formats_measured) flags += "sizes measured on the frame (size-range recipe, formats 0xFFFF); ";
   if (!flags.empty()) flags.resize(flags.size() - 2);
   result.push_back(row(image, modbus::kRegResultFlags, 1, "result flags", hex16(image[modbus::kRegResultFlags]),
                        flags.empty() ? "none set" : flags));
@@ -287,8 +288,8 @@ void box_pick_row(const modbus::RegisterImage& image, const modbus::ResultRecord
                      blocked.empty() ? "every reported box pickable" : blocked));
 }
 
-/// Rows of the pick block 540..902: header 540..544, the reported groups, the box slots' pick
-/// statuses and the result id copy in 902.
+/// Rows of the pick block 540..902 (header 540..544, the reported groups, the box slots' pick
+/// statuses, the result id copy in 902) and of the size block 910..974.
 Json pick_rows(const modbus::RegisterImage& image, const modbus::DecodedResult& res) {
   const modbus::ResultRecord& rec = res.record;
   Json rows = Json::array();
@@ -306,6 +307,14 @@ Json pick_rows(const modbus::RegisterImage& image, const modbus::DecodedResult& 
   box_pick_row(image, rec, rows);
   rows.push_back(row(image, modbus::kPickIdCopy, 1, "pick result id copy", std::to_string(res.pick_result_id_copy),
                      res.pick_result_id_copy == res.result_id ? "matches 200" : "differs from 200: torn read"));
+  if (!rec.boxes.empty()) {
+    const modbus::BoxRecord& b = rec.boxes.front();
+    rows.push_back(row(image, modbus::kSizeStart, modbus::kSizeStride * static_cast<int>(rec.boxes.size()), "box sizes",
+                       "slot 0: " + fixed(b.long_m * 1000.0, 1) + " x " + fixed(b.short_m * 1000.0, 1) + " mm",
+                       rec.formats_measured ? "measured on the frame" : "the recipe's formats"));
+  }
+  rows.push_back(row(image, modbus::kSizeIdCopy, 1, "size result id copy", std::to_string(res.size_result_id_copy),
+                     res.size_result_id_copy == res.result_id ? "matches 200" : "differs from 200: torn read"));
   return rows;
 }
 

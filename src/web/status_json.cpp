@@ -226,7 +226,7 @@ Json result_json(const ResultSnapshot& snapshot, const std::string& stem, const 
     r["format"] = b.format;
     const bool named = recipe != nullptr && b.format >= 0 &&
                        static_cast<std::size_t>(b.format) < recipe->formats.size();
-    r["format_name"] = named ? recipe->formats[static_cast<std::size_t>(b.format)].name : "";
+    r["format_name"] = named ? recipe->formats[static_cast<std::size_t>(b.format)].name : (b.format < 0 ? "measured" : "");
     r["score"] = b.score;
     r["score_terms"] = j["boxes"][i]["score_terms"];  // shown on hover
     // With a gripper: whether the robot can take it now, else why not ("" without a gripper).

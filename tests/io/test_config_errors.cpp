@@ -263,6 +263,31 @@ TEST_CASE("config error: recipes") {
   CHECK(default_recipe.key == "pipeline.default_recipe");
 }
 
+TEST_CASE("config: a size-range recipe, and its errors with line and key") {
+  const Config ok = parse_config(
+      "recipes:\n  - {number: 90, name: unknown, size_range_mm: {long: [200, 800], short: [150, 600]}}\n"
+      "pipeline:\n  default_recipe: 90\n",
+      "r.yaml");
+  REQUIRE(ok.recipes.size() == 1);
+  REQUIRE(ok.recipes[0].size_range.has_value());
+  CHECK(ok.recipes[0].formats.empty());
+  CHECK(ok.recipes[0].size_range->long_min_m == Approx(0.2));
+  CHECK(ok.recipes[0].size_range->short_max_m == Approx(0.6));
+  CHECK(recipe_candidates(ok, 0).empty());  // a size range fits any carton: it is never named as best
+
+  const std::string formats = "formats:\n  - {name: A, long_mm: 300, short_mm: 200}\n";
+  const Failure both =
+      failure_of(formats + "recipes:\n  - {number: 1, formats: [A], size_range_mm: {long: [1, 2], short: [1, 2]}}\n");
+  CHECK(both.line == 4);
+  CHECK_THAT(both.what, Contains("formats or a size range, not both"));
+  const Failure reversed =
+      failure_of("recipes:\n  - number: 1\n    size_range_mm:\n      long: [800, 200]\n      short: [150, 600]\n");
+  CHECK(reversed.line == 4);
+  CHECK(reversed.key == "recipes[0].size_range_mm.long");
+  const Failure missing = failure_of("recipes:\n  - {number: 1, size_range_mm: {long: [200, 800]}}\n");
+  CHECK_THAT(missing.what, Contains("short"));
+}
+
 TEST_CASE("config error: camera_to_base and intrinsics") {
   const Failure length = failure_of("camera_to_base: [1, 0, 0, 0]\n");
   CHECK(length.line == 1);

@@ -351,7 +351,7 @@ ResultRecord make_picking_result() {
 
 TEST_CASE("a result with picks encodes the pick block and decodes back in both word orders",
           "[modbus][register_map]") {
-  CHECK(kRegisterCount == 903);  // the pick block 540..902 ends the register space
+  CHECK(kRegisterCount == 975);  // the size block 910..974 ends the register space
   for (const WordOrder order : {WordOrder::kHighWordFirst, WordOrder::kLowWordFirst}) {
     RegisterImage image{};
     image.fill(0xABCD);

@@ -29,7 +29,8 @@ TEST_CASE("status and result blocks read as holding and input registers (FC3, FC
   CHECK(modbus_read_input_registers(c.ctx, 406, 125, many) == 125);  // up to 530
   CHECK(modbus_read_registers(c.ctx, 531, 2, many) == 2);              // the best recipe and across the gap 533..539
   CHECK(modbus_read_input_registers(c.ctx, 778, 125, many) == 125);  // up to 902
-  CHECK(modbus_read_registers(c.ctx, 902, 2, many) == -1);
+  CHECK(modbus_read_registers(c.ctx, 850, 125, many) == 125);        // up to 974, the size block's end
+  CHECK(modbus_read_registers(c.ctx, 974, 2, many) == -1);
   CHECK(errno == EMBXILADD);
   CHECK(modbus_read_input_registers(c.ctx, kRegisterCount, 1, many) == -1);
   CHECK(errno == EMBXILADD);
@@ -170,8 +171,9 @@ TEST_CASE("quantity limits, address ranges and unknown functions get their excep
   CHECK(exception_of(ask(RawClient::read_pdu(3, 0, 0))) == 3);
   CHECK(exception_of(ask(RawClient::read_pdu(3, 500, 32))) == 0);
   CHECK(exception_of(ask(RawClient::read_pdu(3, 778, 125))) == 0);
-  CHECK(exception_of(ask(RawClient::read_pdu(3, 779, 125))) == 2);
-  CHECK(exception_of(ask(RawClient::read_pdu(4, 903, 1))) == 2);
+  CHECK(exception_of(ask(RawClient::read_pdu(3, 850, 125))) == 0);
+  CHECK(exception_of(ask(RawClient::read_pdu(3, 851, 125))) == 2);
+  CHECK(exception_of(ask(RawClient::read_pdu(4, 975, 1))) == 2);
   CHECK(exception_of(ask(RawClient::read_pdu(1, 0, 2001))) == 3);
   CHECK(exception_of(ask({5, 0, 0, 0x12, 0x34})) == 3);  // coil value neither 0 nor FF00
   CHECK(exception_of(ask({0x07})) == 1);

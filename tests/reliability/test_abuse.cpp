@@ -177,7 +177,7 @@ TEST_CASE("abuse over loopback: the cap and the allow-list hold and the PLC keep
     auto q = raw(port);
     REQUIRE(q->send(frame(9, pdu(3, 200, 126))));
     CHECK(exception_of(q->receive(kAnswer)) == 3);
-    REQUIRE(q->send(frame(10, pdu(3, 880, 40))));  // past 902, the last register
+    REQUIRE(q->send(frame(10, pdu(3, 950, 40))));  // past 974, the last register
     CHECK(exception_of(q->receive(kAnswer)) == 2);
     // FC16 announcing 124 registers (limit 123) with a byte count that does not match.
     REQUIRE(q->send(frame(11, {16, 0, 0, 0, 124, 2, 0, 0})));

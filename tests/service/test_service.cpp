@@ -168,7 +168,7 @@ TEST_CASE("a layer of other cartons fails with detail 8 and names the configured
   config.formats.push_back(palletd::BoxFormat{0.420, 0.315, "420x315", 0.0});
   // Two candidates to name (a detection each) and room for them under the sanitizers.
   config.recipes.resize(2);
-  config.recipes.push_back({20, "420x315", {static_cast<int>(config.formats.size()) - 1}});
+  config.recipes.push_back({20, "420x315", {static_cast<int>(config.formats.size()) - 1}, std::nullopt});
   config.pipeline.detection_timeout_ms = 120000.0;
   palletd::Service service(config);
   REQUIRE(service.start().ok());
@@ -194,6 +194,37 @@ TEST_CASE("a layer of other cartons fails with detail 8 and names the configured
   REQUIRE(right.ok());
   CHECK(right->result.record.status == ResultStatus::kOk);
   CHECK(right->result.record.best_recipe == 0);
+  service.stop();
+}
+
+TEST_CASE("a size-range recipe answers with format 0xFFFF and each box's measured size in 910 + 2 i") {
+  TempFrames frames({"12_block_300x200_holes_o3d303"});
+  palletd::Config config = demo_config(frames.dir);
+  palletd::Recipe unknown{90, "unknown cartons", {}, palletd::SizeRange{0.2, 0.8, 0.15, 0.6}};
+  config.recipes.push_back(unknown);
+  config.pipeline.detection_timeout_ms = 120000.0;  // room for the sanitizer builds
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
+  REQUIRE(plc.connect().ok());
+  auto result = plc.trigger(90, 11, 120s);
+  REQUIRE(result.ok());
+  REQUIRE(result->result.ids_agree());  // 200 = 530 = 540 = 902 = 974
+  const palletd::modbus::ResultRecord& rec = result->result.record;
+  REQUIRE(rec.status == ResultStatus::kOk);
+  CHECK(rec.formats_measured);
+  CHECK(rec.boxes.size() == 12);
+  CHECK_FALSE(rec.ambiguous);
+  for (const palletd::modbus::BoxRecord& b : rec.boxes) {
+    CHECK(b.format == 0xFFFF);
+    CHECK(b.long_m == Approx(0.300).margin(0.010));
+    CHECK(b.short_m == Approx(0.200).margin(0.010));
+  }
+  // The same frame with its recipe's formats: indices, the format's size, no measured flag.
+  auto known = plc.trigger(static_cast<std::uint16_t>(config.recipes.front().number), 12, 120s);
+  REQUIRE(known.ok());
+  CHECK_FALSE(known->result.record.formats_measured);
+  if (!known->result.record.boxes.empty()) CHECK(known->result.record.boxes.front().format != 0xFFFF);
   service.stop();
 }
 

@@ -52,7 +52,7 @@ struct Cell {
     scene = *sim::make_scene(o, profile, seed);
     for (const auto& r : scene.recipe) formats.push_back(BoxFormat{r.long_m, r.short_m, r.name, 0.0});
     config.formats = formats;
-    config.recipes = {Recipe{1, "block", {0}}};
+    config.recipes = {Recipe{1, "block", {0}, std::nullopt}};
     config.camera.driver = "replay";
     config.camera.replay.directory = replay.string();
     config.camera.replay.rate_hz = 0.0;

@@ -319,3 +319,29 @@ TEST_CASE("palletctl detect --config with a gripper: pickable, blocked_by, tcp a
   CHECK_FALSE(k.contains("groups"));
   CHECK_FALSE(k["boxes"][0].contains("pickable"));
 }
+
+TEST_CASE("palletctl teach prints config entries palletd accepts, and detect takes a size-range recipe") {
+  TempDir dir;
+  const std::string frame = kSource + "/tests/data/12_block_300x200_holes_o3d303";
+  const std::string overlay = dir.file("taught.png");
+  const Run taught = run("src/palletctl/palletctl", {"teach", frame, "--number", "7", "--overlay", overlay});
+  INFO(taught.out << taught.err);
+  CHECK(taught.exit_code == 0);
+  CHECK_THAT(taught.out, Contains("12 carton(s) of 30") && Contains("recipes:") && Contains("number: 7"));
+  CHECK(fs::file_size(overlay) > 0);
+  const std::string config = dir.file("taught.yaml");
+  write(config, taught.out + "pipeline:\n  default_recipe: 7\n");
+  const Run check = run("src/palletd/palletd", {"--check-config", config});
+  CHECK(check.exit_code == 0);
+
+  const std::string range = dir.file("range.yaml");
+  write(range, "recipes:\n  - {number: 90, size_range_mm: {long: [200, 800], short: [150, 600]}}\n"
+               "pipeline:\n  default_recipe: 90\n");
+  const Run detected = run("src/palletctl/palletctl", {"detect", "--config", range, "--recipe", "90", frame});
+  CHECK(detected.exit_code == 0);
+  CHECK_THAT(detected.out, Contains("\"format\":-1") && Contains("\"formats_measured\":true"));
+
+  const Run missing = run("src/palletctl/palletctl", {"teach", dir.file("no_such_frame")});
+  CHECK(missing.exit_code == 2);
+  CHECK_THAT(missing.err, Contains("no_such_frame"));
+}

@@ -17,17 +17,21 @@
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/pick_check.hpp"
 #include "palletd/detection/recipe_choice.hpp"
+#include "palletd/detection/unknown_cartons.hpp"
 #include "palletd/drivers/camera_config.hpp"
 #include "palletd/modbus/server.hpp"
 #include "palletd/web/web.hpp"
 
 namespace palletd {
 
-/// A recipe: a numbered list of box formats the PLC selects.
+/// A recipe: a numbered list of box formats the PLC selects, or a size range.
 struct Recipe {
   int number = 0;
   std::string name;
   std::vector<int> formats;  ///< indices into Config::formats
+  /// Cartons nobody entered (`size_range_mm`): the sizes are measured on the frame
+  /// (detect_unknown_cartons()); `formats` is then empty.
+  std::optional<SizeRange> size_range;
 };
 
 struct PipelineConfig {

@@ -152,6 +152,9 @@ struct Detection {
   /// The boxes' measured sides against the recipe's formats (status recipe_mismatch when they
   /// disagree; the boxes are then dropped, the measurements stay here).
   RecipeCheck recipe_check;
+  /// The recipe gave a size range, not formats (detect_unknown_cartons()): the boxes' sizes were
+  /// measured on the frame and their format is -1.
+  bool formats_measured = false;
   /// With a gripper: the picks that can be made now, in pick order (each pickable box is in one).
   std::vector<PickGroup> groups;
   FrameHealth health;  ///< how well the camera saw the cell in this frame (every readable frame)

@@ -38,7 +38,14 @@ inline constexpr std::uint16_t kMaxGroups = 32;
 inline constexpr std::uint16_t kPickStatusStart = 870;  ///< 870 + i: PickStatus of box slot i
 inline constexpr std::uint16_t kPickIdCopy = 902;       ///< copy of register 200
 inline constexpr std::uint16_t kPickCount = kPickIdCopy - kPickStart + 1;  ///< 540..902
-inline constexpr std::uint16_t kRegisterCount = kPickIdCopy + 1;          ///< 0..902
+// size block 910..974, read-only: each reported box's top face (the format's size, or the size
+// measured on the frame with a size-range recipe), written with each result
+inline constexpr std::uint16_t kSizeStart = 910;  ///< 910 + 2 i: long side, 911 + 2 i: short side [0.1 mm]
+inline constexpr std::uint16_t kSizeStride = 2;
+inline constexpr std::uint16_t kSizeIdCopy = 974;  ///< copy of register 200
+inline constexpr std::uint16_t kSizeCount = kSizeIdCopy - kSizeStart + 1;  ///< 910..974
+inline constexpr std::uint16_t kRegisterCount = kSizeIdCopy + 1;          ///< 0..974
+static_assert(kSizeIdCopy == kSizeStart + kSizeStride * kMaxBoxes);
 static_assert(kGroupStart == kPickStart + kPickHeaderCount);
 static_assert(kPickStatusStart == kGroupStart + kGroupStride * kMaxGroups);
 static_assert(kPickIdCopy == kPickStatusStart + kMaxBoxes);
@@ -156,6 +163,9 @@ inline constexpr std::uint16_t kResLayerClipped = 1u << 2;
 inline constexpr std::uint16_t kResOutlineUnobserved = 1u << 3;
 /// The layer's height above the pallet is not a whole number of box heights (bit0 is set too).
 inline constexpr std::uint16_t kResHeightOffLayers = 1u << 4;
+/// The recipe is a size range: the boxes' sizes (910 + 2 i) were measured on the frame and their
+/// format register reads 0xFFFF.
+inline constexpr std::uint16_t kResFormatsMeasured = 1u << 5;
 // pick flags (register 541)
 inline constexpr std::uint16_t kPickGripper = 1u << 0;  ///< a gripper is configured: pick data valid
 // cell health flags (register 146)
@@ -244,10 +254,11 @@ using RegisterImage = std::array<std::uint16_t, kRegisterCount>;
 struct BoxRecord {
   double x_m = 0.0, y_m = 0.0, z_m = 0.0;  ///< box top centre [m] (base frame, else camera)
   double yaw_deg = 0.0;                    ///< long-axis angle about z [deg]; wrapped to -180..180
-  std::uint16_t format = 0;                ///< index of the format in the recipe
+  std::uint16_t format = 0;                ///< index of the format in the recipe; 0xFFFF = measured
   double score = 0.0;                      ///< 0..1
   std::uint16_t pick_index = 0;            ///< position in the pick order, 1 = pick first
   PickStatus pick_status = PickStatus::kPickable;  ///< meaningful with ResultRecord::picking
+  double long_m = 0.0, short_m = 0.0;      ///< top face [m] (910 + 2 i)
 };
 
 /// One pick of the gripper: a box, or boxes in consecutive slots taken together.
@@ -283,6 +294,7 @@ struct ResultRecord {
   bool layer_clipped = false;
   bool outline_unobserved = false;  ///< the layer may go on where the depth ends
   bool height_off_layers = false;   ///< height above the pallet is no whole number of box heights
+  bool formats_measured = false;    ///< size-range recipe: sizes measured, formats 0xFFFF (206 bit5)
   ResultDetail detail = ResultDetail::kNone;          ///< why no boxes (status kNoBoxes)
   std::optional<double> height_above_pallet_m;       ///< [m], when the pallet's height is configured
   std::optional<int> layers_remaining;                ///< counting the top layer
@@ -401,7 +413,7 @@ void encode_status(const StatusRecord& status, WordOrder order, RegisterImage& i
 /// zero without `picking` and for a failed result).
 void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrder order,
                    RegisterImage& image);
-/// Clears registers 200..902 and 130..139 (no result yet).
+/// Clears registers 200..974 and 130..139 (no result yet).
 void clear_result(RegisterImage& image);
 
 ControlRecord decode_control(const RegisterImage& image);
@@ -412,11 +424,13 @@ struct DecodedResult {
   std::uint16_t result_id_copy = 0;  ///< register 530; differs from result_id on a torn read
   std::uint16_t pick_result_id = 0;       ///< register 540
   std::uint16_t pick_result_id_copy = 0;  ///< register 902
+  std::uint16_t size_result_id_copy = 0;  ///< register 974
   ResultRecord record;               ///< error/error_detail/processing_ms are not in this block
 
-  /// The result id is the same in 200, 530, 540 and 902: the reads belong to one result.
+  /// The result id is the same in 200, 530, 540, 902 and 974: the reads belong to one result.
   [[nodiscard]] bool ids_agree() const {
-    return result_id_copy == result_id && pick_result_id == result_id && pick_result_id_copy == result_id;
+    return result_id_copy == result_id && pick_result_id == result_id && pick_result_id_copy == result_id &&
+           size_result_id_copy == result_id;
   }
 };
 DecodedResult decode_result(const RegisterImage& image, WordOrder order);

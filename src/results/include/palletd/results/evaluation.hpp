@@ -16,6 +16,8 @@ struct EvalOptions {
   /// The detector was given other formats than the truth's recipe (recipe_matches() false): the
   /// right answer is then recipe_mismatch, and any unflagged layout is wrong.
   bool recipe_wrong = false;
+  /// A box whose size was measured (format -1) has the right size within this of the carton's [mm].
+  double measured_size_mm = 10.0;
 };
 
 /// Whether `formats` are the truth's recipe (the same sizes, in any order, within 1 mm).
@@ -38,6 +40,9 @@ struct FrameEval {
   std::size_t truth_boxes = 0, detected_boxes = 0, matched = 0;
   std::vector<double> position_errors_mm;  ///< per matched pair
   std::vector<double> yaw_errors_deg;      ///< per matched pair, mod 180
+  /// Per matched pair whose size was measured (format -1, a size-range recipe): the larger of
+  /// the two sides' differences from the carton's size [mm].
+  std::vector<double> size_errors_mm;
   double pairwise_error_mm = 0.0;  ///< mean |d_ij(detected) - d_ij(truth)| over matched pairs (the paper's metric)
   bool formats_right = true;
   /// Boxes: no miss, no extra, all within tolerance, right formats. Empty or slip_sheet: the
@@ -70,6 +75,9 @@ struct EvalSummary {
   double precision = 0.0, recall = 0.0, exact_rate = 0.0;
   double position_median_mm = 0.0, position_p95_mm = 0.0, position_max_mm = 0.0;
   double yaw_median_deg = 0.0, yaw_p95_deg = 0.0;
+  /// Boxes whose size was measured (size-range recipe) and how far off the carton's size [mm].
+  std::size_t size_measured = 0;
+  double size_median_mm = 0.0, size_p95_mm = 0.0;
   double pairwise_mean_mm = 0.0;
   double runtime_median_ms = 0.0, runtime_p95_ms = 0.0;
   /// Ambiguity-aware counts over frames with outline_tied checked: unambiguous frames and how
