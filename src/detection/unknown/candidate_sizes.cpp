@@ -171,13 +171,13 @@ std::vector<Side> merge_sides(std::vector<Side> sides) {
 }
 
 /// A length is i cartons' long sides plus j short sides plus the gaps between them.
-bool whole_cartons(double length_m, double long_m, double short_m, double max_gap_m) {
-  constexpr double kTolerance_m = 0.012;
+bool whole_cartons(double length_m, double long_m, double short_m, double max_gap_m,
+                   double tolerance_m = 0.012) {
   for (int i = 0; i <= 8; ++i) {
     for (int j = 0; j <= 8 && i + j <= 10; ++j) {
       if (i + j == 0) continue;
       const double slack = length_m - (i * long_m + j * short_m);
-      if (slack >= -kTolerance_m && slack <= (i + j - 1) * max_gap_m + kTolerance_m) return true;
+      if (slack >= -tolerance_m && slack <= (i + j - 1) * max_gap_m + tolerance_m) return true;
     }
   }
   return false;
@@ -197,15 +197,9 @@ double explained_lines(const std::vector<std::pair<double, double>>& lines, doub
   for (std::size_t k = 1; k + 1 < lines.size(); ++k) {
     const auto [x, strength] = lines[k];
     seen += strength;
-    bool hit = false;
-    for (int i = 0; i <= 8 && !hit; ++i) {
-      for (int j = 0; j <= 8 && !hit && i + j <= 10; ++j) {
-        if (i + j == 0) continue;
-        const double at = i * l + j * s, slack = (i + j - 1) * max_gap_m + 0.008;
-        hit = (x - at >= -0.008 && x - at <= slack) ||
-              (length_m - x - at >= -0.008 && length_m - x - at <= slack);
-      }
-    }
+    constexpr double kLineTolerance_m = 0.008;
+    const bool hit = whole_cartons(x, l, s, max_gap_m, kLineTolerance_m) ||
+                     whole_cartons(length_m - x, l, s, max_gap_m, kLineTolerance_m);
     if (hit) explained += strength;
   }
   return seen > 0.0 ? explained / seen : 1.0;

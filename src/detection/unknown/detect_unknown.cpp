@@ -31,10 +31,11 @@ constexpr double kSizeSigma_m = 0.02;
 struct Trial {
   BoxFormat tried;
   Detection detection;
-  BoxFormat measured;     ///< median measured sides; the candidate's own where none were measured
-  double evidence = 0.0;  ///< SeamAgreement::score(): seams along the boxes' sides, none across
-  double fit = 0.0;       ///< evidence x agreement of the measured sides with the size tried
-  SeamAgreement::Score seams;
+  BoxFormat measured;  ///< median measured sides; the candidate's own where none were measured
+  double fit = 0.0;    ///< evidence() x agreement of the measured sides with the size tried
+  SeamAgreement::Score seams;  ///< seams along the boxes' sides, none across (0 without a layout)
+
+  [[nodiscard]] double evidence() const { return seams.product(); }
 };
 
 double median(std::vector<double> v) {
@@ -46,7 +47,7 @@ double median(std::vector<double> v) {
 /// The candidate laid out; its boxes' measured sides against it.
 Trial try_size(const Frame& frame, const BoxFormat& size, const DetectionParams& params,
                DetectionWorkspace& workspace, const SeamAgreement& agreement) {
-  Trial t{size, detect(frame, {size}, params, workspace), size, 0.0, 0.0, {}};
+  Trial t{size, detect(frame, {size}, params, workspace), size, 0.0, {}};
   if (t.detection.status != DetectionStatus::kOk || t.detection.boxes.empty()) return t;
   std::vector<double> longs, shorts;
   for (const DetectedBox& b : t.detection.boxes) {
@@ -63,10 +64,9 @@ Trial try_size(const Frame& frame, const BoxFormat& size, const DetectionParams&
   }
   if (t.measured.short_m > t.measured.long_m) std::swap(t.measured.long_m, t.measured.short_m);
   t.seams = agreement.score(t.detection.boxes);
-  t.evidence = t.seams.product();
   // A size that leaves part of the layer bare (cartons too large to fit where the others do) is
   // weighed by its coverage once more: the seams it explains cover less of the layer.
-  t.fit = t.evidence * t.detection.coverage * std::exp(-0.25 * z2);
+  t.fit = t.evidence() * t.detection.coverage * std::exp(-0.25 * z2);
   return t;
 }
 
@@ -113,7 +113,7 @@ std::vector<Trial> try_sizes(const Frame& frame, const std::vector<SizeCandidate
     Trial t = try_size(frame, c.format, params, workspace, agreement);
     if (t.detection.status == DetectionStatus::kEmpty || t.detection.status == DetectionStatus::kSlipSheet)
       without_boxes = t.detection;
-    if (t.evidence > 0.0) trials.push_back(std::move(t));
+    if (t.evidence() > 0.0) trials.push_back(std::move(t));
   }
   const auto by_fit = [](const Trial& a, const Trial& b) { return a.fit > b.fit; };
   std::sort(trials.begin(), trials.end(), by_fit);
@@ -123,7 +123,7 @@ std::vector<Trial> try_sizes(const Frame& frame, const std::vector<SizeCandidate
         std::any_of(trials.begin(), trials.end(), [&](const Trial& t) { return same_size(t.tried, f); });
     if (tried) continue;
     Trial t = try_size(frame, f, params, workspace, agreement);
-    if (t.evidence > 0.0) trials.push_back(std::move(t));
+    if (t.evidence() > 0.0) trials.push_back(std::move(t));
   }
   std::stable_sort(trials.begin(), trials.end(), by_fit);
   return trials;
@@ -142,9 +142,9 @@ bool finer_fits_as_well(const Trial& other, const Trial& best) {
 /// carton from two, or another size is supported nearly as well.
 std::string size_doubt(const std::vector<Trial>& trials, const UnknownCartonParams& unknown) {
   const Trial& best = trials.front();
-  if (best.evidence < unknown.min_evidence && best.detection.boxes.size() > 1)
+  if (best.evidence() < unknown.min_evidence && best.detection.boxes.size() > 1)
     return "the seams between the cartons are not seen (evidence " +
-           std::to_string(best.evidence).substr(0, 4) + "): one carton cannot be told from two";
+           std::to_string(best.evidence()).substr(0, 4) + "): one carton cannot be told from two";
   const ScoreTerms& camera = best.detection.boxes.front().score_terms;
   if (best.detection.boxes.size() > 1 &&
       (camera.pitch_mm > unknown.max_pitch_mm || camera.rim_share < unknown.min_rim_share))
@@ -159,7 +159,7 @@ std::string size_doubt(const std::vector<Trial>& trials, const UnknownCartonPara
   for (std::size_t i = 1; i < trials.size(); ++i) {
     const BoxFormat& other = trials[i].measured;
     if (same_size(other, best.measured)) continue;
-    if (trials[i].evidence < unknown.tie_ratio * best.evidence && !finer_fits_as_well(trials[i], best))
+    if (trials[i].evidence() < unknown.tie_ratio * best.evidence() && !finer_fits_as_well(trials[i], best))
       continue;
     return "cartons of " + mm(other) + " explain the layer nearly as well as " + mm(best.measured);
   }
@@ -220,7 +220,7 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
   // A sheet over the layer shows no seams whatever the size: where some size called it a sheet
   // and no size finds seams, no boxes are reported.
   const bool sheet_likely =
-      without_boxes && (trials.empty() || trials.front().evidence < unknown.min_evidence);
+      without_boxes && (trials.empty() || trials.front().evidence() < unknown.min_evidence);
   if (trials.empty() || sheet_likely) {
     if (without_boxes) {
       without_boxes->formats_measured = true;

@@ -67,11 +67,7 @@ std::vector<Eigen::Vector2d> SeamAgreement::corners_of(const DetectedBox& box) c
   const Eigen::Vector3d c = T_layer_camera_ * box.center;
   const Eigen::Vector3d u3 = T_layer_camera_.linear() * box.long_axis;
   const Eigen::Vector2d u = Eigen::Vector2d(u3.x(), u3.y()).normalized();
-  const Eigen::Vector2d v(-u.y(), u.x());
-  const Eigen::Vector2d centre(c.x(), c.y());
-  const double hl = box.long_m / 2, hs = box.short_m / 2;
-  return {centre - hl * u - hs * v, centre + hl * u - hs * v, centre + hl * u + hs * v,
-          centre - hl * u + hs * v};
+  return Box2d{Eigen::Vector2d(c.x(), c.y()), std::atan2(u.y(), u.x()), box.long_m, box.short_m, 0}.corners();
 }
 
 SeamAgreement::Score SeamAgreement::score(const std::vector<DetectedBox>& boxes) const {
