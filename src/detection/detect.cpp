@@ -50,7 +50,7 @@ bool is_failure(DetectionStatus status) {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using Clock = DetectionEnd::Clock;
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
@@ -97,6 +97,48 @@ void score_boxes(const LayoutResult& layout, Detection& out) {
   out.layout_confidence = layout_confidence(out);
 }
 
+/// Stage 8 on a layout found: the boxes, the recipe check, their confidences, the picks.
+Detection boxes_of_layout(const Frame& frame, const std::vector<BoxFormat>& formats,
+                          const DetectionParams& params, const DetectionWorkspace& workspace,
+                          const LayoutResult& layout, Detection out, const DetectionEnd& end) {
+  // Stage 8: poses in the camera and base frames, pick order, the layer's height.
+  out.boxes =
+      to_detected_boxes(layout.boxes, out.layer.T_camera_layer, frame.T_base_camera, params.pick_order);
+  layer_height(layer_base_z_m(out.layer, frame.T_base_camera), formats, params.pallet, out);
+  // Stage 8a: the cartons measured against the recipe; a layer of other cartons has no layout.
+  out.recipe_check = check_recipe(out.boxes, formats, params.recipe_check, layout.pixel_pitch_m,
+                                  params.layout.refine.max_oversize);
+  if (!out.recipe_check.agrees && !out.recipe_check.some_agree) {
+    out.boxes.clear();
+    std::string reason = out.recipe_check.reason;
+    return end(std::move(out), DetectionStatus::kRecipeMismatch, std::move(reason));
+  }
+  if (!out.recipe_check.agrees) {  // some formats fit, others not: a wrong choice of format
+    out.ambiguous = true;
+    out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + out.recipe_check.reason;
+    out.ambiguity_kinds.push_back(AmbiguityKind::kLevelCheck);
+  }
+  score_boxes(layout, out);  // Stage 8b: each box's confidence, then the layout's.
+  if (params.gripper) {      // Stage 8c: what the gripper can take now, and in which order.
+    const auto t0 = Clock::now();
+    const PickSurroundings surroundings{
+        out.layer.T_camera_layer,
+        obstacles_above_layer(frame, workspace.rays, out.layer.T_camera_layer,
+                              1e-3 * params.gripper->obstacle_height_mm, params.roi ? &*params.roi : nullptr,
+                              frame.T_base_camera),
+        params.roi, frame.T_base_camera, frame.intrinsics};
+    out.groups = plan_picks(surroundings, *params.gripper, out.boxes);
+    out.timing_ms["picking"] = ms_since(t0);
+  }
+  // The layer's warnings (an outline along invalid depth) stay with a successful frame.
+  std::string message = out.layer.reason;
+  if (layout.completed_unseen > 0) {
+    message += (message.empty() ? "" : "; ") + std::to_string(layout.completed_unseen) +
+               " box(es) completed across the edge where the depth ends (partly_unseen)";
+  }
+  return end(std::move(out), DetectionStatus::kOk, std::move(message));
+}
+
 }  // namespace
 
 std::string cloud_in_region(const Frame& frame, const DetectionParams& params, DetectionWorkspace& workspace) {
@@ -125,37 +167,39 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
 
 Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, const DetectionParams& params,
                  DetectionWorkspace& workspace) {
-  const auto t_start = Clock::now();
+  DetectionEnd end{frame, params, Clock::now()};
   Detection out;
-  bool readable = false;
-  auto finish = [&](DetectionStatus status, std::string message) {
-    out.status = status;
-    out.message = std::move(message);
-    if (readable) {  // Stage 9: the cell's health, whatever became of the layer.
-      const auto t_health = Clock::now();
-      out.health = measure_frame_health(frame, params.roi ? &*params.roi : nullptr, out.layer, params.noise_model);
-      out.timing_ms["health"] = ms_since(t_health);
-    }
-    out.timing_ms["total"] = ms_since(t_start);
-    return out;
-  };
-  if (std::string problem = frame_problem(frame); !problem.empty()) return finish(DetectionStatus::kBadFrame, problem);
-  readable = true;
+  if (std::string problem = frame_problem(frame); !problem.empty())
+    return end(std::move(out), DetectionStatus::kBadFrame, problem);
+  end.readable = true;
   if (std::string problem = box_formats_problem(formats); !problem.empty())
-    return finish(DetectionStatus::kNoLayout, problem);
+    return end(std::move(out), DetectionStatus::kNoLayout, problem);
 
   // Stage 0: organized cloud into the caller's workspace (rays and cloud reused frame after frame).
   auto t0 = Clock::now();
-  out.roi = params.roi;
-  if (std::string problem = cloud_in_region(frame, params, workspace); !problem.empty())
-    return finish(DetectionStatus::kBadFrame, problem);
-  const OrganizedCloud& cloud = workspace.cloud;
-  out.timing_ms["cloud"] = ms_since(t0);
+  if (std::string problem = cloud_in_region(frame, params, workspace); !problem.empty()) {
+    out.roi = params.roi;
+    return end(std::move(out), DetectionStatus::kBadFrame, problem);
+  }
+  const double cloud_ms = ms_since(t0);
 
   // Stages 1-5: plane, layer, components, crust contour.
   double smallest_box_m2 = std::numeric_limits<double>::max();
   for (const auto& f : formats) smallest_box_m2 = std::min(smallest_box_m2, f.long_m * f.short_m);
-  out.layer = top_layer(frame, cloud, params, smallest_box_m2);
+  out = with_layer(top_layer(frame, workspace.cloud, params, smallest_box_m2), params);
+  out.timing_ms["cloud"] = cloud_ms;
+  if (out.layer.status != DetectionStatus::kOk) {
+    const DetectionStatus status = out.layer.status;
+    std::string reason = out.layer.reason;
+    return end(std::move(out), status, std::move(reason));
+  }
+  return lay_out_layer(frame, formats, params, workspace, nullptr, std::move(out), end);
+}
+
+Detection with_layer(LayerResult layer, const DetectionParams& params) {
+  Detection out;
+  out.roi = params.roi;
+  out.layer = std::move(layer);
   const LayerDiagnostics& diag = out.layer.diagnostics;
   out.timing_ms["plane"] = diag.t_plane_ms;
   out.timing_ms["layer"] = diag.t_layer_ms;
@@ -164,24 +208,47 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   out.clipped_by_image_border = diag.touches_image_border;
   out.outline_unobserved = diag.outline_along_invalid;
   for (const auto& polygon : out.layer.polygons) out.layer_area_m2 += area(polygon);
-  if (out.layer.status != DetectionStatus::kOk) return finish(out.layer.status, out.layer.reason);
+  return out;
+}
+
+Detection DetectionEnd::operator()(Detection out, DetectionStatus status, std::string message) const {
+  out.status = status;
+  out.message = std::move(message);
+  if (readable) {  // Stage 9: the cell's health, whatever became of the layer.
+    const auto t_health = Clock::now();
+    out.health =
+        measure_frame_health(frame, params.roi ? &*params.roi : nullptr, out.layer, params.noise_model);
+    out.timing_ms["health"] = ms_since(t_health);
+  }
+  out.timing_ms["total"] = ms_since(t_start);
+  return out;
+}
+
+Detection lay_out_layer(const Frame& frame, const std::vector<BoxFormat>& formats,
+                        const DetectionParams& params, DetectionWorkspace& workspace,
+                        const LayerEvidence* evidence, Detection out, const DetectionEnd& end) {
+  const OrganizedCloud& cloud = workspace.cloud;
+  double smallest_box_m2 = std::numeric_limits<double>::max();
+  for (const auto& f : formats) smallest_box_m2 = std::min(smallest_box_m2, f.long_m * f.short_m);
   const std::optional<double> layer_z_m = layer_base_z_m(out.layer, frame.T_base_camera);
   // An empty pallet or a slip sheet ends the frame without boxes (and without a layout's flags).
   auto without_boxes = [&](const LevelVerdict& verdict) {
     out.ambiguous = false;
     out.ambiguity_reason.clear();
     out.ambiguity_kinds.clear();
-    out.status = verdict.status;
+    out.status = verdict.status;  // layer_height() reads it
     layer_height(layer_z_m, formats, params.pallet, out);
-    return finish(verdict.status, verdict.message);
+    return end(std::move(out), verdict.status, verdict.message);
   };
   if (std::optional<LevelVerdict> empty = empty_level(frame, out.layer, formats, params)) return without_boxes(*empty);
 
   // Stages 6-7: layout search with seam evidence, refinement; then what the level is.
   if (std::string problem = too_many_boxes(out.layer_area_m2, smallest_box_m2); !problem.empty())
-    return finish(DetectionStatus::kNoLayout, problem);
-  t0 = Clock::now();
-  const LayoutResult layout = solve_layout(frame, cloud, out.layer, formats, params.layout);
+    return end(std::move(out), DetectionStatus::kNoLayout, problem);
+  const auto t0 = Clock::now();
+  const LayoutResult layout = evidence != nullptr
+                                  ? solve_layout(frame, cloud, out.layer, *evidence, formats, params.layout)
+                                  : solve_layout(frame, cloud, out.layer, formats, params.layout);
   out.timing_ms["layout"] = ms_since(t0);
   out.ambiguous = layout.ambiguous;
   out.budget_exhausted = layout.budget_exhausted;
@@ -198,42 +265,8 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
     out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + level->message;
     out.ambiguity_kinds.push_back(AmbiguityKind::kLevelCheck);
   }
-  if (layout.status != DetectionStatus::kOk) return finish(layout.status, layout.reason);
-
-  // Stage 8: poses in the camera and base frames, pick order, the layer's height.
-  out.boxes = to_detected_boxes(layout.boxes, out.layer.T_camera_layer,
-                                frame.T_base_camera, params.pick_order);
-  layer_height(layer_z_m, formats, params.pallet, out);
-  // Stage 8a: the cartons measured against the recipe; a layer of other cartons has no layout.
-  out.recipe_check = check_recipe(out.boxes, formats, params.recipe_check, layout.pixel_pitch_m,
-                                  params.layout.refine.max_oversize);
-  if (!out.recipe_check.agrees && !out.recipe_check.some_agree) {
-    out.boxes.clear();
-    return finish(DetectionStatus::kRecipeMismatch, out.recipe_check.reason);
-  }
-  if (!out.recipe_check.agrees) {  // some formats fit, others not: a wrong choice of format
-    out.ambiguous = true;
-    out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + out.recipe_check.reason;
-    out.ambiguity_kinds.push_back(AmbiguityKind::kLevelCheck);
-  }
-  score_boxes(layout, out);  // Stage 8b: each box's confidence, then the layout's.
-  if (params.gripper) {  // Stage 8c: what the gripper can take now, and in which order.
-    t0 = Clock::now();
-    const PickSurroundings surroundings{out.layer.T_camera_layer,
-                                  obstacles_above_layer(frame, workspace.rays, out.layer.T_camera_layer,
-                                                        1e-3 * params.gripper->obstacle_height_mm,
-                                                        params.roi ? &*params.roi : nullptr, frame.T_base_camera),
-                                  params.roi, frame.T_base_camera, frame.intrinsics};
-    out.groups = plan_picks(surroundings, *params.gripper, out.boxes);
-    out.timing_ms["picking"] = ms_since(t0);
-  }
-  // The layer's warnings (an outline along invalid depth) stay with a successful frame.
-  std::string message = out.layer.reason;
-  if (layout.completed_unseen > 0) {
-    message += (message.empty() ? "" : "; ") + std::to_string(layout.completed_unseen) +
-               " box(es) completed across the edge where the depth ends (partly_unseen)";
-  }
-  return finish(DetectionStatus::kOk, message);
+  if (layout.status != DetectionStatus::kOk) return end(std::move(out), layout.status, layout.reason);
+  return boxes_of_layout(frame, formats, params, workspace, layout, std::move(out), end);
 }
 
 }  // namespace palletd

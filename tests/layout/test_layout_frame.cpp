@@ -193,6 +193,31 @@ TEST_CASE("dark lines in the intensity alone resolve the pinwheel when depth sho
   }
 }
 
+TEST_CASE("evidence built once lays the layer out as solve_layout builds it, for each format") {
+  // The detection of unknown cartons lays one layer out with many sizes on evidence built once.
+  // The expansion budget alone ends the searches (no wall-clock cap under sanitizers).
+  LayoutParams p;
+  p.search.time_budget_ms = 1e6;
+  const KnownLayout l = centred_pinwheel(false);
+  const Scene s = render(l, false, true);
+  const LayerEvidence evidence = build_layer_evidence(s.frame, s.cloud, s.layer, p.seams);
+  REQUIRE_FALSE(evidence.seams.empty());
+  for (const BoxFormat& f : {l.formats.front(), BoxFormat{0.3, 0.2, "", 0.0}}) {
+    const LayoutResult own = solve_layout(s.frame, s.cloud, s.layer, {f}, p);
+    const LayoutResult reused = solve_layout(s.frame, s.cloud, s.layer, evidence, {f}, p);
+    REQUIRE(own.boxes.size() == reused.boxes.size());
+    CHECK(own.ambiguous == reused.ambiguous);
+    CHECK(own.rim_share == reused.rim_share);
+    for (std::size_t i = 0; i < own.boxes.size(); ++i) {
+      CHECK(own.boxes[i].center.isApprox(reused.boxes[i].center));
+      CHECK(own.boxes[i].yaw_rad == reused.boxes[i].yaw_rad);
+    }
+  }
+  LayerResult none = s.layer;
+  none.status = DetectionStatus::kNoLayer;
+  CHECK(solve_layout(s.frame, s.cloud, none, evidence, l.formats, p).status == DetectionStatus::kNoLayer);
+}
+
 TEST_CASE("labels near box sides: their edges are no seams, the dark gaps are") {
   // Depth shows no gap; the intensity shows the gaps as dark lines and, on every box, a bright
   // label whose edge runs 20 mm inside a side. A label's edges are steps, not lines darker than

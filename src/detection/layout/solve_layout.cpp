@@ -82,17 +82,33 @@ void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const st
   }
 }
 
+/// No layout without a layer: its status and reason.
+LayoutResult without_layer(const LayerResult& layer) {
+  LayoutResult r;
+  r.status = layer.status;
+  r.reason = layer.reason;
+  return r;
+}
+
 }  // namespace
+
+LayerEvidence build_layer_evidence(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                                   const SeamParams& params) {
+  return {build_seam_evidence(frame, cloud, layer, params), build_layer_rim(frame, cloud, layer)};
+}
 
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                           const std::vector<BoxFormat>& formats, const LayoutParams& params) {
-  if (layer.status != DetectionStatus::kOk) {
-    LayoutResult r;
-    r.status = layer.status;
-    r.reason = layer.reason;
-    return r;
-  }
-  const SeamEvidence seams = build_seam_evidence(frame, cloud, layer, params.seams);
+  if (layer.status != DetectionStatus::kOk) return without_layer(layer);
+  return solve_layout(frame, cloud, layer, build_layer_evidence(frame, cloud, layer, params.seams), formats,
+                      params);
+}
+
+LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                          const LayerEvidence& evidence, const std::vector<BoxFormat>& formats,
+                          const LayoutParams& params) {
+  if (layer.status != DetectionStatus::kOk) return without_layer(layer);
+  const SeamEvidence& seams = evidence.seams;
   double max_long = 0.0;
   for (const auto& f : formats) max_long = std::max(max_long, f.long_m);
   // Only a layer whose outline runs somewhere along pixels without depth or along the image
@@ -107,7 +123,7 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
     p.search.outline_tolerance_m = p.search.outline_tolerance_pitches * layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
   }
   LayoutResult result = find_layout(layer.polygons, formats, p, &seams, &around);
-  const std::vector<RimPixel> rim = build_layer_rim(frame, cloud, layer);
+  const std::vector<RimPixel>& rim = evidence.rim;
   if (p.refine.enabled && p.search.mode != SearchMode::kPaper) {
     result = refine_layout(result, layer, formats, &seams, p, &around, &rim);
   }

@@ -1,7 +1,8 @@
-// detect_unknown_cartons(): a layer of cartons whose size only a range bounds. The candidate sizes
-// come from the layer's outline and seams (candidate_sizes()); detect() lays each one out; the
-// size whose layout the frame supports best and whose boxes measure as that size wins, and is
-// detected again with the size measured on its boxes.
+// detect_unknown_cartons(): a layer of cartons whose size only a range bounds. The layer and its
+// seam evidence are found once; the candidate sizes come from its outline and seams
+// (candidate_sizes()) and each one is laid out on it (stages 6-9 of detect()); the size whose
+// layout the frame supports best and whose boxes measure as that size wins, and is laid out again
+// with the size measured on its boxes.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -44,10 +45,23 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+/// One layer of the frame and what the layout stage reads about it, laid out with every size tried.
+struct SharedLayer {
+  const Frame& frame;
+  const LayerResult& layer;
+  const LayerEvidence& evidence;
+  DetectionWorkspace& workspace;  ///< holds the frame's organized cloud
+
+  [[nodiscard]] Detection lay_out(const BoxFormat& size, const DetectionParams& params) const {
+    const DetectionEnd end{frame, params, Clock::now(), true};
+    return lay_out_layer(frame, {size}, params, workspace, &evidence, with_layer(layer, params), end);
+  }
+};
+
 /// The candidate laid out; its boxes' measured sides against it.
-Trial try_size(const Frame& frame, const BoxFormat& size, const DetectionParams& params,
-               DetectionWorkspace& workspace, const SeamAgreement& agreement) {
-  Trial t{size, detect(frame, {size}, params, workspace), size, 0.0, {}};
+Trial try_size(const SharedLayer& shared, const BoxFormat& size, const DetectionParams& params,
+               const SeamAgreement& agreement) {
+  Trial t{size, shared.lay_out(size, params), size, 0.0, {}};
   if (t.detection.status != DetectionStatus::kOk || t.detection.boxes.empty()) return t;
   std::vector<double> longs, shorts;
   for (const DetectedBox& b : t.detection.boxes) {
@@ -104,13 +118,12 @@ std::string range_problem(const SizeRange& r) {
 /// Each candidate laid out, then the best one's halves and doubles (two cartons side by side look
 /// like one where no seam shows: such a tie is then seen, not decided by which sizes were
 /// proposed); sorted by fit, best first. `without_boxes` keeps an empty pallet or a slip sheet.
-std::vector<Trial> try_sizes(const Frame& frame, const std::vector<SizeCandidate>& candidates,
+std::vector<Trial> try_sizes(const SharedLayer& shared, const std::vector<SizeCandidate>& candidates,
                              const SizeRange& range, const DetectionParams& params,
-                             DetectionWorkspace& workspace, const SeamAgreement& agreement,
-                             std::optional<Detection>& without_boxes) {
+                             const SeamAgreement& agreement, std::optional<Detection>& without_boxes) {
   std::vector<Trial> trials;
   for (const SizeCandidate& c : candidates) {
-    Trial t = try_size(frame, c.format, params, workspace, agreement);
+    Trial t = try_size(shared, c.format, params, agreement);
     if (t.detection.status == DetectionStatus::kEmpty || t.detection.status == DetectionStatus::kSlipSheet)
       without_boxes = t.detection;
     if (t.evidence() > 0.0) trials.push_back(std::move(t));
@@ -122,7 +135,7 @@ std::vector<Trial> try_sizes(const Frame& frame, const std::vector<SizeCandidate
     const bool tried =
         std::any_of(trials.begin(), trials.end(), [&](const Trial& t) { return same_size(t.tried, f); });
     if (tried) continue;
-    Trial t = try_size(frame, f, params, workspace, agreement);
+    Trial t = try_size(shared, f, params, agreement);
     if (t.evidence() > 0.0) trials.push_back(std::move(t));
   }
   std::stable_sort(trials.begin(), trials.end(), by_fit);
@@ -207,16 +220,16 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
     d.formats_measured = true;
     return d;
   }
-  const SeamEvidence seams = build_seam_evidence(frame, workspace.cloud, layer, params.layout.seams);
-  const std::vector<SizeCandidate> candidates = candidate_sizes(layer, seams, range, unknown);
+  const LayerEvidence evidence = build_layer_evidence(frame, workspace.cloud, layer, params.layout.seams);
+  const std::vector<SizeCandidate> candidates = candidate_sizes(layer, evidence.seams, range, unknown);
+  const SharedLayer shared{frame, layer, evidence, workspace};
 
   DetectionParams trial_params = params;  // the size is the question: no recipe check, no picks
   trial_params.recipe_check.enabled = false;
   trial_params.gripper.reset();
   std::optional<Detection> without_boxes;  // an empty pallet or a slip sheet, whatever the size
-  const SeamAgreement agreement(layer, seams, unknown.outline_margin_m);
-  std::vector<Trial> trials =
-      try_sizes(frame, candidates, range, trial_params, workspace, agreement, without_boxes);
+  const SeamAgreement agreement(layer, evidence.seams, unknown.outline_margin_m);
+  std::vector<Trial> trials = try_sizes(shared, candidates, range, trial_params, agreement, without_boxes);
   // A sheet over the layer shows no seams whatever the size: where some size called it a sheet
   // and no size finds seams, no boxes are reported.
   const bool sheet_likely =
@@ -237,10 +250,10 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
   // itself) and the picks on.
   DetectionParams final_params = params;
   final_params.recipe_check.enabled = false;
-  Detection out = detect(frame, {best.measured}, final_params, workspace);
+  Detection out = shared.lay_out(best.measured, final_params);
   if (out.status != DetectionStatus::kOk || out.boxes.empty() ||
       out.layout_confidence < 0.8 * best.detection.layout_confidence)
-    out = detect(frame, {best.tried}, final_params, workspace);
+    out = shared.lay_out(best.tried, final_params);
   const std::string doubt = size_doubt(trials, unknown);
   if (!doubt.empty()) flag_size_doubt(doubt, out);
   for (DetectedBox& b : out.boxes) b.format = -1;

@@ -1,6 +1,7 @@
 // Seam evidence: gaps between boxes as depth below the plane, missing depth or dark intensity lines,
 // resampled into a raster in the layer frame.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -8,8 +9,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "layer_raster.hpp"
 #include "palletd/detection/layout.hpp"
+
+#include "layer_raster.hpp"
 
 namespace palletd {
 
@@ -45,28 +47,31 @@ double median_abs_deviation(std::vector<double> v) {
   return *mid;
 }
 
-/// How much darker pixel (u, v) is than both pixels r = 1 or 2 away on either side of it, across
-/// a line along the row, the column or a diagonal (the largest of the eight) [intensity counts];
-/// 0 where it is not darker than both, and within two pixels of the image border. A gap between
-/// boxes is a dark line in the amplitude image (the gap returns less light than the tops on
-/// either side of it); a step (a label, print, tape, a box of another shade) is darker on one
+/// For every pixel: how much darker it is than both pixels r = 1 or 2 away on either side of it,
+/// across a line along the row, the column or a diagonal (the largest of the eight) [intensity
+/// counts]; 0 where it is not darker than both, and within two pixels of the image border. A gap
+/// between boxes is a dark line in the amplitude image (the gap returns less light than the tops
+/// on either side of it); a step (a label, print, tape, a box of another shade) is darker on one
 /// side only and gives nothing, where an edge detector answers both alike and draws seams along
-/// every label.
-float dark_line_depth(const std::vector<std::uint16_t>& inten, int width, int height, int u, int v) {
+/// every label. Whole-image operations on 16-bit counts: the subtraction saturates at 0.
+cv::Mat dark_line_depths(const std::vector<std::uint16_t>& inten, int width, int height) {
   constexpr int kAcross[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
   constexpr int kReach = 2;  // pixels
-  if (u < kReach || v < kReach || u >= width - kReach || v >= height - kReach) return 0.f;
-  const auto at = [&](int x, int y) {
-    return static_cast<float>(inten[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)]);
-  };
-  const float c = at(u, v);
-  float best = 0.f;
+  cv::Mat depths = cv::Mat::zeros(height, width, CV_16U);
+  if (width <= 2 * kReach || height <= 2 * kReach) return depths;
+  const cv::Mat image(height, width, CV_16U, const_cast<std::uint16_t*>(inten.data()));  // read only
+  const cv::Size inner(width - 2 * kReach, height - 2 * kReach);
+  const auto at = [&](int dx, int dy) { return image(cv::Rect(cv::Point(kReach + dx, kReach + dy), inner)); };
+  cv::Mat best = depths(cv::Rect(cv::Point(kReach, kReach), inner));
+  cv::Mat darker;
   for (const auto& d : kAcross) {
     for (int r = 1; r <= kReach; ++r) {
-      best = std::max(best, std::min(at(u + r * d[0], v + r * d[1]), at(u - r * d[0], v - r * d[1])) - c);
+      cv::min(at(r * d[0], r * d[1]), at(-r * d[0], -r * d[1]), darker);
+      cv::subtract(darker, at(0, 0), darker);
+      cv::max(best, darker, best);
     }
   }
-  return best;
+  return depths;
 }
 
 /// Whether pixel (u, v), without depth, returned as much light as the layer's tops around it:
@@ -78,18 +83,21 @@ bool bright_dropout(const std::vector<std::uint16_t>& inten, const OrganizedClou
                     double band_m, int u, int v) {
   constexpr double kBrightDropout = 0.9;
   constexpr int kReach = 2;  // pixels
-  std::vector<float> tops;
+  std::array<float, (2 * kReach + 1) * (2 * kReach + 1)> tops{};
+  std::size_t n = 0;
   for (int y = std::max(0, v - kReach); y <= std::min(cloud.height - 1, v + kReach); ++y) {
     for (int x = std::max(0, u - kReach); x <= std::min(cloud.width - 1, u + kReach); ++x) {
       const Eigen::Vector3f& p = cloud.at(x, y);
       if (!std::isfinite(p.x()) || !std::isfinite(p.z())) continue;
       if (std::abs(plane.signed_distance(p.cast<double>())) > band_m) continue;
-      tops.push_back(static_cast<float>(inten[static_cast<std::size_t>(y) * static_cast<std::size_t>(cloud.width) + static_cast<std::size_t>(x)]));
+      tops[n++] =
+          static_cast<float>(inten[static_cast<std::size_t>(y) * static_cast<std::size_t>(cloud.width) +
+                                   static_cast<std::size_t>(x)]);
     }
   }
-  if (tops.size() < 3) return false;
-  const auto mid = tops.begin() + static_cast<long>(tops.size() / 2);
-  std::nth_element(tops.begin(), mid, tops.end());
+  if (n < 3) return false;
+  const auto mid = tops.begin() + static_cast<long>(n / 2);
+  std::nth_element(tops.begin(), mid, tops.begin() + static_cast<long>(n));
   const float own = static_cast<float>(inten[static_cast<std::size_t>(v) * static_cast<std::size_t>(cloud.width) + static_cast<std::size_t>(u)]);
   return own >= kBrightDropout * *mid;
 }
@@ -189,6 +197,7 @@ struct PixelScoring {
   const SeamParams& params;
   double step_m = 0.0;           ///< depth below the plane where seams start [m]
   double intensity_sigma = 0.0;  ///< intensity noise [counts]; 0: intensity not used
+  cv::Mat dark_lines;            ///< dark_line_depths() of the intensity (CV_16U) when it is used
 };
 
 /// How seam-like pixel `pix` (at u, v) looks, 0..1: its depth below the plane (from step_m on,
@@ -211,8 +220,7 @@ float pixel_seam(const PixelScoring& ps, std::size_t pix, int u, int v) {
   }
   if (ps.intensity_sigma > 0) {
     const double g_lo = ps.params.intensity_noise_k;
-    const Intrinsics& in = ps.frame.intrinsics;
-    const double z = dark_line_depth(ps.frame.intensity, in.width, in.height, u, v) / ps.intensity_sigma;
+    const double z = ps.dark_lines.at<std::uint16_t>(v, u) / ps.intensity_sigma;
     s = std::max(s, static_cast<float>(ps.params.intensity_weight * std::clamp((z - g_lo) / g_lo, 0.0, 1.0)));
   }
   return s;
@@ -223,13 +231,18 @@ struct CellSums {
   std::vector<float> sum, count;
 };
 
-/// Each pixel's seam-likeness summed into the cell it falls into.
-CellSums sum_cells(const PixelScoring& ps, const std::vector<int>& cell_of, std::size_t cells) {
-  CellSums sums{std::vector<float>(cells, 0.f), std::vector<float>(cells, 0.f)};
+/// Each pixel's seam-likeness summed into the cell it falls into, for the cells inside the mask
+/// and their eight neighbours (cell_means() reads no others).
+CellSums sum_cells(const PixelScoring& ps, const std::vector<int>& cell_of,
+                   const std::vector<std::uint8_t>& mask_cells, int raster_width, int raster_height) {
+  std::vector<std::uint8_t> read(mask_cells.size(), 0);
+  cv::dilate(cv::Mat(raster_height, raster_width, CV_8U, const_cast<std::uint8_t*>(mask_cells.data())),
+             cv::Mat(raster_height, raster_width, CV_8U, read.data()), cv::Mat::ones(3, 3, CV_8U));
+  CellSums sums{std::vector<float>(mask_cells.size(), 0.f), std::vector<float>(mask_cells.size(), 0.f)};
   const auto width = static_cast<std::size_t>(ps.frame.intrinsics.width);
   for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
     const int cell = cell_of[pix];
-    if (cell < 0) continue;
+    if (cell < 0 || read[static_cast<std::size_t>(cell)] == 0) continue;
     const float s = pixel_seam(ps, pix, static_cast<int>(pix % width), static_cast<int>(pix / width));
     const auto c = static_cast<std::size_t>(cell);
     sums.sum[c] += s;
@@ -298,8 +311,9 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
 
   // Pass 2: each pixel's seam-likeness (depth below the plane, missing depth, a dark line in the
   // intensity image), averaged per cell.
-  const PixelScoring scoring{frame, cloud, plane, params, ev.depth_threshold_m, intensity_sigma};
-  CellSums sums = sum_cells(scoring, cell_of, mask_cells.size());
+  PixelScoring scoring{frame, cloud, plane, params, ev.depth_threshold_m, intensity_sigma, {}};
+  if (intensity_sigma > 0) scoring.dark_lines = dark_line_depths(frame.intensity, in.width, in.height);
+  CellSums sums = sum_cells(scoring, cell_of, mask_cells, ev.width, ev.height);
   cell_means(sums, mask_cells, ev);
   return ev;
 }

@@ -300,9 +300,25 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
                            const LayoutParams& params, const LayerSurroundings* surroundings = nullptr,
                            const std::vector<RimPixel>* rim = nullptr);
 
-/// build_seam_evidence + find_layout + refine_layout.
+/// What the layout stage reads from the frame about a layer, whatever the formats: the seams and
+/// the mixed pixels along the rim. Built once per layer; every layout of that layer may reuse it.
+struct LayerEvidence {
+  SeamEvidence seams;
+  std::vector<RimPixel> rim;
+};
+
+/// build_seam_evidence + build_layer_rim.
+LayerEvidence build_layer_evidence(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                                   const SeamParams& params);
+
+/// build_layer_evidence + find_layout + refine_layout.
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                           const std::vector<BoxFormat>& formats, const LayoutParams& params);
+
+/// find_layout + refine_layout on evidence built before for this layer and frame.
+LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
+                          const LayerEvidence& evidence, const std::vector<BoxFormat>& formats,
+                          const LayoutParams& params);
 
 /// Area of the intersection of a polygon with holes and an axis-aligned rectangle [m^2] (exact).
 double clipped_area(const PolygonWithHoles& polygon, double x0, double y0, double x1, double y1);
