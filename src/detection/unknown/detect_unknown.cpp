@@ -14,7 +14,9 @@
 #include "palletd/detection/confidence.hpp"
 #include "palletd/detection/unknown_cartons.hpp"
 
+#include "edge_offset.hpp"
 #include "frame_problem.hpp"
+#include "layer_raster.hpp"
 #include "seam_agreement.hpp"
 #include "top_layer.hpp"
 
@@ -179,6 +181,20 @@ std::string size_doubt(const std::vector<Trial>& trials, const UnknownCartonPara
   return {};
 }
 
+/// Why the sizes measured on the outline are in doubt, "" when they are not: the depth's edges lie
+/// outside the intensity's by more than max_edge_offset_px (a stereo camera's fattened tops).
+std::string fattened_tops(const EdgeOffset& edges, const Intrinsics& intrinsics, const LayerResult& layer,
+                          const UnknownCartonParams& unknown) {
+  const double pitch_m = layout_detail::layer_pixel_pitch_m(intrinsics, layer);
+  if (edges.samples == 0 || !(edges.offset_m > unknown.max_edge_offset_px * pitch_m)) return {};
+  const auto offset_mm = static_cast<int>(std::lround(1e3 * edges.offset_m));
+  return "the depth's edges lie " + std::to_string(offset_mm) +
+         " mm outside the intensity image's (the camera fattens the tops): sizes measured on the outline run "
+         "up "
+         "to " +
+         std::to_string(2 * offset_mm) + " mm large";
+}
+
 /// The carton size is in doubt: the layout is flagged and its confidences say so.
 void flag_size_doubt(const std::string& why, Detection& out) {
   out.ambiguous = true;
@@ -256,6 +272,9 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
     out = shared.lay_out(best.tried, final_params);
   const std::string doubt = size_doubt(trials, unknown);
   if (!doubt.empty()) flag_size_doubt(doubt, out);
+  const std::string fattened =
+      fattened_tops(intensity_edge_offset(frame, layer), frame.intrinsics, layer, unknown);
+  if (!fattened.empty()) flag_size_doubt(fattened, out);
   for (DetectedBox& b : out.boxes) b.format = -1;
   out.formats_measured = true;
   out.timing_ms["total"] = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();

@@ -47,6 +47,11 @@ struct UnknownCartonParams {
   double min_rim_share = 0.3;
   /// A size whose layout covers less of the layer than this leaves cartons unexplained: flagged.
   double min_coverage = 0.92;
+  /// Where the intensity image shows the layer's outer edges more than this many pixel pitches
+  /// inside the depth's outline, the depth fattens the tops (a stereo camera's block matching;
+  /// a time-of-flight camera's depth and amplitude share each pixel and agree within a third of
+  /// a pixel): sizes measured on the outline run large, the layout is flagged.
+  double max_edge_offset_px = 1.0;
 };
 
 /// A carton size the layer suggests, with how much of the frame proposes it.

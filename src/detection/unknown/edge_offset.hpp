@@ -1,0 +1,27 @@
+// Where the intensity image puts the layer's outer edges against where the depth puts them. A
+// stereo camera's block matching fattens the tops: a pixel whose matching window straddles an
+// edge reports the nearer surface, so the depth outline lies a pixel or more outside the edge;
+// its infrared image, which depth is registered to, is not matched and shows the edge where it
+// is. A time-of-flight camera measures depth and amplitude in the same pixel: the two agree.
+#pragma once
+
+#include <cstddef>
+
+#include "palletd/core/frame.hpp"
+#include "palletd/detection/layer.hpp"
+
+namespace palletd {
+
+struct EdgeOffset {
+  /// Median over the outline samples: how far inside the depth outline the intensity's edge lies
+  /// [m] (negative: outside).
+  double offset_m = 0.0;
+  std::size_t samples = 0;  ///< outline samples with a clear intensity step; 0: no estimate
+};
+
+/// The layer's outer rings sampled a pixel pitch apart (away from the corners), the intensity
+/// read across each sample over four pixels either side; where it steps clearly, the step's
+/// position. No estimate without intensity or with fewer than `min_samples` clear steps.
+EdgeOffset intensity_edge_offset(const Frame& frame, const LayerResult& layer, std::size_t min_samples = 20);
+
+}  // namespace palletd
