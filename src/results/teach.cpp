@@ -4,14 +4,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include "palletd/core/statistics.hpp"
+
 namespace palletd {
 
 namespace {
-
-double median_of(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 /// Boxes within this of a group's first box on both sides are one size [m].
 constexpr double kSameSize_m = 0.015;
@@ -22,13 +19,13 @@ TaughtFormat summarize(const std::vector<const DetectedBox*>& group) {
     longs.push_back(b->long_m);
     shorts.push_back(b->short_m);
   }
-  const double l = median_of(longs), s = median_of(shorts);
+  const double l = upper_median(longs), s = upper_median(shorts);
   std::vector<double> deviation;
   for (double v : longs) deviation.push_back(std::abs(v - l));
   TaughtFormat f;
   f.long_mm = static_cast<int>(std::lround(1e3 * l));
   f.short_mm = static_cast<int>(std::lround(1e3 * s));
-  f.spread_mm = 1e3 * median_of(deviation);
+  f.spread_mm = 1e3 * upper_median(deviation);
   f.boxes = static_cast<int>(group.size());
   return f;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "palletd/core/statistics.hpp"
 #include "palletd/detection/pick_check.hpp"
 
 #include "../frame_problem.hpp"
@@ -126,10 +127,7 @@ double edge_bias(const Grid& before, const std::vector<DetectedBox>& boxes) {
   for (const DetectedBox& b : boxes)
     for (const auto& s : pick_check::edge_samples(before, b.in_layer, kReach_m))
       if (s) offsets.push_back(s->offset_m);
-  if (offsets.empty()) return 0.0;
-  std::nth_element(offsets.begin(), offsets.begin() + static_cast<std::ptrdiff_t>(offsets.size() / 2),
-                   offsets.end());
-  return offsets[offsets.size() / 2];
+  return upper_median(std::move(offsets));
 }
 
 PickVerdict verdict_of(const std::vector<BoxCheck>& boxes, std::string& message) {

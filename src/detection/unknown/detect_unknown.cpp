@@ -11,6 +11,7 @@
 #include <tuple>
 #include <vector>
 
+#include "palletd/core/statistics.hpp"
 #include "palletd/detection/confidence.hpp"
 #include "palletd/detection/unknown_cartons.hpp"
 
@@ -41,12 +42,6 @@ struct Trial {
   [[nodiscard]] double evidence() const { return seams.product(); }
 };
 
-double median(std::vector<double> v) {
-  if (v.empty()) return -1.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
 /// One layer of the frame and what the layout stage reads about it, laid out with every size tried.
 struct SharedLayer {
   const Frame& frame;
@@ -73,7 +68,7 @@ Trial try_size(const SharedLayer& shared, const BoxFormat& size, const Detection
   double z2 = 0.0;
   for (auto [sides, nominal, measured] : {std::tuple(&longs, size.long_m, &t.measured.long_m),
                                           std::tuple(&shorts, size.short_m, &t.measured.short_m)}) {
-    const double m = median(*sides);
+    const double m = upper_median(*sides, -1.0);
     const double z = m > 0.0 ? (m - nominal) / kSizeSigma_m : 0.4;  // unmeasured: 8 mm off
     if (m > 0.0) *measured = m;
     z2 += z * z;

@@ -8,6 +8,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include "palletd/core/statistics.hpp"
+
 #include "layer_raster.hpp"
 
 namespace palletd {
@@ -125,9 +127,8 @@ EdgeOffset intensity_edge_offset(const Frame& frame, const LayerResult& layer, s
     if (std::isfinite(at_steps)) offsets_m.push_back(-at_steps * kStep_px * pitch_m);
   }
   if (offsets_m.size() < min_samples) return {};
-  const auto mid = offsets_m.begin() + static_cast<std::ptrdiff_t>(offsets_m.size() / 2);
-  std::nth_element(offsets_m.begin(), mid, offsets_m.end());
-  return {*mid, offsets_m.size()};
+  const std::size_t steps = offsets_m.size();
+  return {upper_median(std::move(offsets_m)), steps};
 }
 
 }  // namespace palletd

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <memory>
 
+#include "palletd/core/statistics.hpp"
+
 #include "evidence/seam_likelihood.hpp"
 
 namespace palletd::layout_detail {
@@ -28,9 +30,7 @@ double median_along(double lo, double hi, ValueFn&& value) {
     const double x = value(lo + k * step, lo + (k + 1) * step);
     if (x >= 0.0) v.push_back(x);
   }
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
+  return upper_median(std::move(v));
 }
 
 /// Length of the strongest seam line across the box interior (shrunk by margin_m), weighted by

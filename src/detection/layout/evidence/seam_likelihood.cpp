@@ -8,6 +8,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "palletd/core/statistics.hpp"
+
 #include "evidence/seam_raster.hpp"
 
 namespace palletd::layout_detail {
@@ -25,18 +27,11 @@ constexpr double kPieceCap = 3.0;
 /// the half is in the history of this line).
 constexpr double kMissingSeamCap = 0.5 * kPieceCap;
 
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
-
 double mad_sigma(const std::vector<double>& v, double med) {
   std::vector<double> d;
   d.reserve(v.size());
   for (double x : v) d.push_back(std::abs(x - med));
-  return 1.4826 * median_of(std::move(d));
+  return 1.4826 * upper_median(std::move(d));
 }
 
 }  // namespace
@@ -180,8 +175,8 @@ bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& 
   }
   if (seam_c.size() < 4 || null_c.size() < 8) return false;
   measured_ = true;
-  mu0_ = median_of(null_c);
-  mu1_ = median_of(seam_c);
+  mu0_ = upper_median(null_c);
+  mu1_ = upper_median(seam_c);
   const double sep = mu1_ - mu0_;
   // Noise floors: a share of the separation keeps a noise-free raster from giving unbounded
   // odds. Clean box tops are exactly 0 in the raster (its depth and dark-line parts start above
@@ -232,7 +227,7 @@ double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector
     }
     std::vector<double> v;
     for (std::size_t t = i; t < j; ++t) v.push_back(llr(contrast(diff[t].key, diff[t].pos), diff[t].key.vertical));
-    const double run = diff[i].sign * static_cast<double>(j - i) * median_of(std::move(v));
+    const double run = diff[i].sign * static_cast<double>(j - i) * upper_median(std::move(v));
     // Runs whose predicted seam is absent (evidence against the layout predicting it) add up
     // apart: together they are capped (absent_cap_nats).
     if (diff[i].sign * run < 0) {

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "palletd/core/statistics.hpp"
 #include "palletd/detection/layout.hpp"
 
 #include "layer_raster.hpp"
@@ -38,13 +39,9 @@ constexpr double kMinIntensitySigma = 1.0;
 constexpr float kSeamLike = 0.5f;
 
 double median_abs_deviation(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  const double med = *mid;
+  const double med = upper_median(v);
   for (double& x : v) x = std::abs(x - med);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
+  return upper_median(std::move(v));
 }
 
 /// For every pixel: how much darker it is than both pixels r = 1 or 2 away on either side of it,

@@ -7,6 +7,8 @@
 
 #include <Eigen/Dense>
 
+#include "palletd/core/statistics.hpp"
+
 namespace palletd::layout_detail {
 
 namespace {
@@ -14,14 +16,6 @@ namespace {
 /// The largest half side a fit may give: nominal + the tolerance, or the oversize share of it.
 double half_upper(double half_nominal_m, const JointParams& params) {
   return half_nominal_m + std::max(0.5 * params.size_tolerance_m, params.max_oversize * half_nominal_m);
-}
-
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
 }
 
 }  // namespace
@@ -39,7 +33,7 @@ EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref
   // Tukey-reweighted least squares from a flat line through the median; with `flat` the slope
   // stays 0 (a robust location across the side).
   auto fit = [&](bool flat) {
-    a = median_of(p);
+    a = upper_median(p);
     b = 0.0;
     tm = t_ref;
     std::fill(w.begin(), w.end(), 1.0);
@@ -48,14 +42,16 @@ EdgeLine fit_edge_line(const std::vector<Eigen::Vector2d>& samples, double t_ref
       std::vector<double> absr(n);
       for (std::size_t i = 0; i < n; ++i) absr[i] = std::abs(r[i]);
       // The first pass starts from a flat line: let its scale cover a real slope.
-      scale = std::max(1.4826 * median_of(absr), floor_m);
+      scale = std::max(1.4826 * upper_median(absr), floor_m);
       for (std::size_t i = 0; i < n; ++i) {
         const double u = r[i] / (kTukey * scale);
         w[i] = std::abs(u) < 1.0 ? (1 - u * u) * (1 - u * u) : 0.0;
       }
       double sw = 0, st = 0, sp = 0;
       for (std::size_t i = 0; i < n; ++i) {
-        sw += w[i]; st += w[i] * samples[i].x(); sp += w[i] * samples[i].y();
+        sw += w[i];
+        st += w[i] * samples[i].x();
+        sp += w[i] * samples[i].y();
       }
       if (sw <= 0) return false;
       tm = st / sw;
