@@ -2,12 +2,16 @@
 // nothing else changed, a missed pick, a double pick, a neighbour dragged or turned.
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
+#include "palletd/core/statistics.hpp"
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/pick_check.hpp"
 #include "palletd/sim/sim.hpp"
+
+#include "pick_check/check_internal.hpp"
 
 using namespace palletd;
 
@@ -161,6 +165,69 @@ TEST_CASE("pick check: a neighbour dragged toward the gap or turned is found, wi
     CHECK(c.boxes[static_cast<std::size_t>(neighbour)].moved);
     CHECK(c.boxes[static_cast<std::size_t>(neighbour)].turn_deg == Approx(3.0).margin(1.0));
   }
+}
+
+// At 6-9 mm per pixel (o3d303 352 x 264) the two frames are compared on a grid of one cell per
+// pixel: on a finer grid most cells stay empty and the sides' steps scatter by a pixel or more.
+TEST_CASE("pick check at a coarse pitch: a dragged and a turned neighbour are found, a clean pick is clean",
+          "[pick_check]") {
+  const Picking p = start("o3d303", 541);
+  const int neighbour = neighbour_of(p, 0);
+  const std::size_t picked_box = scene_box(p, 0), moved_box = scene_box(p, neighbour);
+  const sim::Scene clean = without(p.scene, {picked_box});
+  const PickCheck ok = check(p, clean, {0}, 3541);
+  CAPTURE(ok.message);
+  CHECK(ok.verdict == PickVerdict::kPickOk);
+
+  sim::Scene dragged = clean;
+  sim::SimBox& b = dragged.boxes[moved_box];
+  b.center += 0.025 * (p.scene.boxes[picked_box].center - b.center).normalized();
+  const PickCheck c = check(p, dragged, {0}, 4541);
+  CAPTURE(c.message);
+  CHECK(c.verdict == PickVerdict::kNeighbourMoved);
+  const BoxCheck& moved = c.boxes[static_cast<std::size_t>(neighbour)];
+  CHECK(moved.moved);
+  CHECK((moved.now.base_position->head<2>() - b.center).norm() < 0.006);
+
+  sim::Scene turned = clean;
+  turned.boxes[moved_box].yaw_rad += 3.0 * M_PI / 180.0;
+  const PickCheck t = check(p, turned, {0}, 5541);
+  CAPTURE(t.message);
+  CHECK(t.verdict == PickVerdict::kNeighbourMoved);
+  CHECK(t.boxes[static_cast<std::size_t>(neighbour)].turn_deg == Approx(3.0).margin(1.0));
+}
+
+TEST_CASE(
+    "pick check grid at a coarse pitch: the steps along each side agree within a pixel, where the "
+    "detection put the side",
+    "[pick_check]") {
+  const Picking p = start("o3d303", 541);  // 352 x 264 at 1.5-2.2 m: 6-9 mm per pixel
+  const Eigen::Isometry3d T_layer_camera = p.last.layer.T_camera_layer.inverse();
+  const RayTable rays(p.before.frame.intrinsics);
+  // The pixel pitch at the boxes' tops, from the camera's focal length.
+  std::vector<double> depths_m;
+  for (const DetectedBox& b : p.last.boxes) depths_m.push_back(b.center.z());
+  const double pitch_m = upper_median(depths_m) / p.before.frame.intrinsics.fx;
+  REQUIRE(pitch_m > 0.005);
+  const double cell_m = pick_check::grid_cell_m(p.before.frame.intrinsics, p.last.layer);
+  pick_check::Grid grid(Eigen::Vector2d(-2.0, -2.0), Eigen::Vector2d(2.0, 2.0), cell_m);
+  grid.add_frame(p.before.frame, rays, T_layer_camera, pick_check::kBand_m, pick_check::kDrop_m);
+  std::vector<double> all, spreads;
+  for (const DetectedBox& b : p.last.boxes) {
+    std::vector<double> per_side[4];
+    for (const auto& s : pick_check::edge_samples(grid, b.in_layer, 0.06))
+      if (s) per_side[s->side].push_back(s->offset_m);
+    for (std::vector<double>& v : per_side) {
+      if (v.size() < 5) continue;
+      all.insert(all.end(), v.begin(), v.end());
+      std::sort(v.begin(), v.end());
+      spreads.push_back(v[v.size() * 9 / 10] - v[v.size() / 10]);  // the middle 80 %
+    }
+  }
+  REQUIRE(spreads.size() >= 4);
+  CAPTURE(pitch_m, cell_m, upper_median(spreads), upper_median(all));
+  CHECK(upper_median(spreads) <= 2.0 * pitch_m);
+  CHECK(std::abs(upper_median(all)) <= 1.5 * pitch_m);
 }
 
 TEST_CASE("pick check: a bad frame or a bad box index fails the check, naming it", "[pick_check]") {

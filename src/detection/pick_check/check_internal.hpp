@@ -10,8 +10,18 @@
 
 #include "palletd/core/frame.hpp"
 #include "palletd/core/geometry.hpp"
+#include "palletd/detection/layer.hpp"
 
 namespace palletd::pick_check {
+
+/// A layer point counts as a box top within this band of the last layer's plane, as a gap or a
+/// lower level this far below it.
+constexpr double kBand_m = 0.012, kDrop_m = 0.025;
+
+/// The grid's cell for frames of `intrinsics` over `layer`: one cell per pixel on the layer, 2 mm
+/// at least. Finer cells leave empty cells between the pixels, and a side's step would be read
+/// from whichever top cell a line across it last hit.
+double grid_cell_m(const Intrinsics& intrinsics, const LayerResult& layer);
 
 /// What the frame shows in one cell of the grid.
 enum class Seen : std::uint8_t {

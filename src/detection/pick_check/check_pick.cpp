@@ -10,7 +10,6 @@
 #include "../frame_problem.hpp"
 #include "../poses.hpp"
 #include "check_internal.hpp"
-#include "layer_raster.hpp"
 
 namespace palletd {
 
@@ -35,9 +34,6 @@ namespace {
 using pick_check::EdgeSample;
 using pick_check::Grid;
 
-/// A layer point counts as a box top within this band of the last layer's plane, as a gap or a
-/// lower level this far below it.
-constexpr double kBand_m = 0.012, kDrop_m = 0.025;
 /// A box's top is looked for inside its outline inset by this much (its edges are rounded and
 /// the moved neighbours' overlap it).
 constexpr double kInset_m = 0.02;
@@ -49,8 +45,6 @@ constexpr double kSignificance = 9.0;
 /// side the pick laid open is measured against it.
 constexpr double kReference_m = 0.004;
 constexpr double kReference_rad = 0.6 * M_PI / 180.0;
-/// The grids' cells are the layer's pixel pitch, never finer than this [m].
-constexpr double kMinCell_m = 0.002;
 /// Fewer seen cells than this: the box's top was not seen (hidden, no depth), taken as there.
 constexpr int kMinSeenCells = 20;
 
@@ -186,13 +180,10 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   hi += Eigen::Vector2d::Constant(0.1);
   const Eigen::Isometry3d T_layer_camera = last.layer.T_camera_layer.inverse();
   const RayTable rays(after.intrinsics);
-  // One cell per pixel on the layer (2 mm at least): finer cells leave unknown cells between the
-  // pixels, and a side's step would be read from whichever top cell a line across it last hit.
-  const double cell_m =
-      std::max(kMinCell_m, layout_detail::layer_pixel_pitch_m(after.intrinsics, last.layer));
+  const double cell_m = pick_check::grid_cell_m(after.intrinsics, last.layer);
   Grid was(lo, hi, cell_m), now(lo, hi, cell_m);
-  was.add_frame(before, rays, T_layer_camera, kBand_m, kDrop_m);
-  now.add_frame(after, rays, T_layer_camera, kBand_m, kDrop_m);
+  was.add_frame(before, rays, T_layer_camera, pick_check::kBand_m, pick_check::kDrop_m);
+  now.add_frame(after, rays, T_layer_camera, pick_check::kBand_m, pick_check::kDrop_m);
   const double bias_m = edge_bias(was, last.boxes);
 
   for (std::size_t i = 0; i < last.boxes.size(); ++i) {

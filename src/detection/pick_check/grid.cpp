@@ -5,8 +5,14 @@
 #include <Eigen/Cholesky>
 
 #include "check_internal.hpp"
+#include "layer_raster.hpp"
 
 namespace palletd::pick_check {
+
+double grid_cell_m(const Intrinsics& intrinsics, const LayerResult& layer) {
+  constexpr double kMinCell_m = 0.002;
+  return std::max(kMinCell_m, layout_detail::layer_pixel_pitch_m(intrinsics, layer));
+}
 
 Grid::Grid(const Eigen::Vector2d& lo_m, const Eigen::Vector2d& hi_m, double cell_m)
     : lo_m_(lo_m), cell_m_(cell_m) {
