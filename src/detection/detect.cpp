@@ -60,6 +60,13 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 /// thousands and take seconds.
 constexpr double kMaxBoxesPerLayer = 600.0;
 
+/// The area of the recipe's smallest box [m2].
+double smallest_box_area_m2(const std::vector<BoxFormat>& formats) {
+  double smallest_m2 = std::numeric_limits<double>::max();
+  for (const BoxFormat& f : formats) smallest_m2 = std::min(smallest_m2, f.long_m * f.short_m);
+  return smallest_m2;
+}
+
 /// Why the layer cannot be laid out in bounded time with these formats; "" when it can.
 std::string too_many_boxes(double layer_area_m2, double smallest_box_m2) {
   if (!(layer_area_m2 / smallest_box_m2 > kMaxBoxesPerLayer)) return {};
@@ -184,8 +191,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   const double cloud_ms = ms_since(t0);
 
   // Stages 1-5: plane, layer, components, crust contour.
-  double smallest_box_m2 = std::numeric_limits<double>::max();
-  for (const auto& f : formats) smallest_box_m2 = std::min(smallest_box_m2, f.long_m * f.short_m);
+  const double smallest_box_m2 = smallest_box_area_m2(formats);
   out = with_layer(top_layer(frame, workspace.cloud, params, smallest_box_m2), params);
   out.timing_ms["cloud"] = cloud_ms;
   if (out.layer.status != DetectionStatus::kOk) {
@@ -228,8 +234,7 @@ Detection lay_out_layer(const Frame& frame, const std::vector<BoxFormat>& format
                         const DetectionParams& params, DetectionWorkspace& workspace,
                         const LayerEvidence* evidence, Detection out, const DetectionEnd& end) {
   const OrganizedCloud& cloud = workspace.cloud;
-  double smallest_box_m2 = std::numeric_limits<double>::max();
-  for (const auto& f : formats) smallest_box_m2 = std::min(smallest_box_m2, f.long_m * f.short_m);
+  const double smallest_box_m2 = smallest_box_area_m2(formats);
   const std::optional<double> layer_z_m = layer_base_z_m(out.layer, frame.T_base_camera);
   // An empty pallet or a slip sheet ends the frame without boxes (and without a layout's flags).
   auto without_boxes = [&](const LevelVerdict& verdict) {
