@@ -184,9 +184,8 @@ std::string fattened_tops(const EdgeOffset& edges, const Intrinsics& intrinsics,
   if (edges.samples == 0 || !(edges.offset_m > unknown.max_edge_offset_px * pitch_m)) return {};
   const auto offset_mm = static_cast<int>(std::lround(1e3 * edges.offset_m));
   return "the depth's edges lie " + std::to_string(offset_mm) +
-         " mm outside the intensity image's (the camera fattens the tops): sizes measured on the outline run "
-         "up "
-         "to " +
+         " mm outside the intensity image's (the camera fattens the tops): sizes measured on the "
+         "outline run up to " +
          std::to_string(2 * offset_mm) + " mm large";
 }
 

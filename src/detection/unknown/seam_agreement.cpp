@@ -25,8 +25,7 @@ constexpr double kTapeHalfWidth_m = 0.024;
 }  // namespace
 
 SeamAgreement::SeamAgreement(const LayerResult& layer, const SeamEvidence& seams, double margin_m)
-    : T_layer_camera_(layer.T_camera_layer.inverse()),
-      origin_m_(seams.origin_m),
+    : origin_m_(seams.origin_m),
       cell_m_(seams.cell_m),
       margin_m_(margin_m),
       band_m_(std::max(0.009, 3.0 * seams.cell_m)) {
@@ -63,13 +62,6 @@ cv::Point SeamAgreement::cell_of(const Eigen::Vector2d& p) const {
   return {static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y()))};
 }
 
-std::vector<Eigen::Vector2d> SeamAgreement::corners_of(const DetectedBox& box) const {
-  const Eigen::Vector3d c = T_layer_camera_ * box.center;
-  const Eigen::Vector3d u3 = T_layer_camera_.linear() * box.long_axis;
-  const Eigen::Vector2d u = Eigen::Vector2d(u3.x(), u3.y()).normalized();
-  return Box2d{Eigen::Vector2d(c.x(), c.y()), std::atan2(u.y(), u.x()), box.long_m, box.short_m, 0}.corners();
-}
-
 SeamAgreement::Score SeamAgreement::score(const std::vector<DetectedBox>& boxes) const {
   Score s;
   if (seams_near_.empty() || boxes.empty()) return s;
@@ -77,7 +69,7 @@ SeamAgreement::Score SeamAgreement::score(const std::vector<DetectedBox>& boxes)
   const int thickness = std::max(1, static_cast<int>(std::lround(2.0 * band_m_ / cell_m_)));
   std::size_t samples = 0, samples_seen = 0;
   for (const DetectedBox& box : boxes) {
-    const std::vector<Eigen::Vector2d> corners = corners_of(box);
+    const std::vector<Eigen::Vector2d> corners = box.in_layer.corners();
     for (std::size_t k = 0; k < 4; ++k) {
       const Eigen::Vector2d a = corners[k], b = corners[(k + 1) % 4];
       cv::line(sides, cell_of(a), cell_of(b), cv::Scalar(255), thickness);
@@ -97,7 +89,7 @@ SeamAgreement::Score SeamAgreement::score(const std::vector<DetectedBox>& boxes)
   const int flap_thickness =
       std::max(1, static_cast<int>(std::lround(2.0 * (band_m_ + kTapeHalfWidth_m) / cell_m_)));
   for (const DetectedBox& box : boxes) {
-    const std::vector<Eigen::Vector2d> c = corners_of(box);
+    const std::vector<Eigen::Vector2d> c = box.in_layer.corners();
     cv::line(sides, cell_of(0.5 * (c[0] + c[3])), cell_of(0.5 * (c[1] + c[2])), cv::Scalar(255),
              flap_thickness);
   }

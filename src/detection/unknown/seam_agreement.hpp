@@ -4,7 +4,7 @@
 
 #include <vector>
 
-#include <Eigen/Geometry>
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "palletd/detection/detection.hpp"
@@ -28,21 +28,18 @@ class SeamAgreement {
     [[nodiscard]] double product() const { return explained * explained * shown; }
   };
 
-  /// Boxes taken in pairs of one size where two cartons stand leave a seam across the pair's top
-  /// unexplained; cartons halved predict seams the frame does not show. Both lower the score;
-  /// a camera that shows few seams lowers every size's alike (`shown` small).
+  /// `boxes` laid out on this layer (their `in_layer` in its frame). Boxes taken in pairs of one
+  /// size where two cartons stand leave a seam across the pair's top unexplained; cartons halved predict
+  /// seams the frame does not show. Both lower the score; a camera that shows few seams lowers every size's
+  /// alike (`shown` small).
   [[nodiscard]] Score score(const std::vector<DetectedBox>& boxes) const;
 
   [[nodiscard]] std::size_t seam_cells() const { return seam_cells_.size(); }
 
  private:
-  /// A box's corners in this layer's frame (through the camera frame: each trial extracts its own
-  /// layer, the same plane to within its noise).
-  [[nodiscard]] std::vector<Eigen::Vector2d> corners_of(const DetectedBox& box) const;
   [[nodiscard]] bool inner(const Eigen::Vector2d& p) const;  ///< inside the layer, off the outline
   [[nodiscard]] cv::Point cell_of(const Eigen::Vector2d& p) const;
 
-  Eigen::Isometry3d T_layer_camera_ = Eigen::Isometry3d::Identity();
   Eigen::Vector2d origin_m_ = Eigen::Vector2d::Zero();
   double cell_m_ = 0.003;
   double margin_m_ = 0.012;
