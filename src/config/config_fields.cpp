@@ -28,6 +28,8 @@ const Table<LayerParams>& layer_table() {
       number("min_component_box_fraction", &LayerParams::min_component_box_fraction, Range::closed(0.0, 1.0)),
       integer("min_hole_area_px", &LayerParams::min_hole_area_px, 0, 1000000),
       flag("reject_clipped", &LayerParams::reject_clipped),
+      number("fattened_edge_min_px", &LayerParams::fattened_edge_min_px, Range::closed(0.0, 20.0)),
+      number("fattened_edge_max_px", &LayerParams::fattened_edge_max_px, Range::closed(0.0, 20.0)),
   };
   return t;
 }

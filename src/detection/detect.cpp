@@ -1,6 +1,4 @@
 // detect(): the named stages of the pipeline, composed. Pure: values in, values out.
-#include "palletd/detection/detection.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -8,11 +6,14 @@
 #include <string>
 #include <utility>
 
-#include "frame_problem.hpp"
 #include "palletd/detection/confidence.hpp"
-#include "level_checks.hpp"
+#include "palletd/detection/detection.hpp"
 #include "palletd/detection/picking.hpp"
 #include "palletd/detection/recipe_check.hpp"
+
+#include "fattened_edges.hpp"
+#include "frame_problem.hpp"
+#include "level_checks.hpp"
 #include "poses.hpp"
 #include "roi.hpp"
 #include "top_layer.hpp"
@@ -160,7 +161,8 @@ LayerResult top_layer(const Frame& frame, const OrganizedCloud& cloud, const Det
   const double min_piece_m2 = params.layer.min_component_box_fraction * smallest_box_m2;
   PlaneParams plane_params = params.plane;
   plane_params.min_plane_area_m2 = std::max(plane_params.min_plane_area_m2, min_piece_m2);
-  return extract_layer(frame, cloud, plane_params, params.layer, params.contour, min_piece_m2);
+  LayerResult layer = extract_layer(frame, cloud, plane_params, params.layer, params.contour, min_piece_m2);
+  return trim_fattened_edges(frame, std::move(layer), params.layer);  // stage 5b
 }
 
 Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, const DetectionParams& params,
@@ -190,7 +192,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   }
   const double cloud_ms = ms_since(t0);
 
-  // Stages 1-5: plane, layer, components, crust contour.
+  // Stages 1-5: plane, layer, components, crust contour; 5b: fattened tops trimmed.
   const double smallest_box_m2 = smallest_box_area_m2(formats);
   out = with_layer(top_layer(frame, workspace.cloud, params, smallest_box_m2), params);
   out.timing_ms["cloud"] = cloud_ms;

@@ -182,6 +182,14 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
                                                 seam_blindness(layout)};
 }
 
+std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout) {
+  if (!layout.budget_exhausted || resolves_seams(layout)) return std::nullopt;
+  return LevelVerdict{DetectionStatus::kOk,
+                      "the layout search ended on its budget before it could rule out another layout that "
+                      "explains the outline as well, and " +
+                          seam_blindness(layout) + ": nothing but the outline decides here"};
+}
+
 std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,
                                        const std::vector<BoxFormat>& formats) {
   const InteriorSeams& seams = layout.interior_seams;
@@ -296,7 +304,8 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (slots) return slots;
   if (layout.status != DetectionStatus::kOk) return std::nullopt;
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
-  return formats_undecided(layout);
+  if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
+  return search_unfinished(layout);
 }
 
 void layer_height(const std::optional<double>& layer_z_m, const std::vector<BoxFormat>& formats,

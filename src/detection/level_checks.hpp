@@ -47,12 +47,17 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
 /// way and nothing in the frame decides, so the layout is flagged (kOk with the sentence).
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
 
+/// The search ended on its budget (LayoutResult::budget_exhausted) on a camera that does not show
+/// narrow seams: only the outline decides, and the search stopped before it could rule out
+/// another layout explaining it as well (a pinwheel's mirror, other formats): flagged (kOk).
+std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout);
+
 /// A box of the layout lies over a slot in the layer (a hole four times longer than wide under
 /// more than 3 % of its top): flagged (kOk with the sentence); the gaps of a pallet's deck look so.
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);
 
 /// After the layout: deck_above_floor when the layout failed, is flagged or covers a slot; the
-/// slot's flag; else slip_sheet.
+/// slot's flag; else slip_sheet, formats_undecided, search_unfinished.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,

@@ -18,7 +18,8 @@ namespace palletd {
 /// region of interest applied. Returns "" or why the region cannot be applied.
 std::string cloud_in_region(const Frame& frame, const DetectionParams& params, DetectionWorkspace& workspace);
 
-/// Stages 1-5 on the workspace's cloud: plane, layer, components, crust contour. The top level
+/// Stages 1-5 on the workspace's cloud: plane, layer, components, crust contour; 5b: a stereo
+/// camera's fattened tops moved back onto the intensity's edges (fattened_edges.hpp). The top level
 /// holds at least min_component_box_fraction x the smallest box: a smaller plane above it is no
 /// layer.
 LayerResult top_layer(const Frame& frame, const OrganizedCloud& cloud, const DetectionParams& params,

@@ -11,7 +11,6 @@
 #include "palletd/sim/sim.hpp"
 
 #include "sim_block_layer.hpp"
-#include "unknown/edge_offset.hpp"
 
 using namespace palletd;
 
@@ -113,42 +112,6 @@ TEST_CASE("on a stereo camera that smooths the seams the layout is right or flag
       CHECK(nearest_m < 0.015);
     }
   }
-}
-
-TEST_CASE(
-    "a stereo camera's fattened tops: the depth's outline lies outside the intensity's edges, sizes flagged",
-    "[unknown_cartons]") {
-  const BoxFormat nominal{0.400, 0.300, "400x300", 0.0};
-  // Time of flight: depth and amplitude come from one pixel, their edges agree.
-  const sim::SimulatedFrame tof = render_layer(sim::PatternFamily::kBlock, "400x300x250", "helios2", 21);
-  const Detection tof_layer = detect(tof.frame, {nominal}, DetectionParams{});
-  REQUIRE(tof_layer.status == DetectionStatus::kOk);
-  const EdgeOffset tof_edges = intensity_edge_offset(tof.frame, tof_layer.layer);
-  REQUIRE(tof_edges.samples >= 20);
-  CHECK(std::abs(tof_edges.offset_m) < 0.002);
-  // Active stereo: the matching window fattens the tops by up to two pixels (about 5 mm each at
-  // this height); the infrared image is not matched.
-  const sim::SimulatedFrame stereo = render_layer(sim::PatternFamily::kBlock, "400x300x250", "d435", 21);
-  const Detection stereo_layer = detect(stereo.frame, {nominal}, DetectionParams{});
-  REQUIRE(stereo_layer.status == DetectionStatus::kOk);
-  const EdgeOffset stereo_edges = intensity_edge_offset(stereo.frame, stereo_layer.layer);
-  REQUIRE(stereo_edges.samples >= 20);
-  CHECK(stereo_edges.offset_m > 0.005);
-  CHECK(stereo_edges.offset_m < 0.015);
-  DetectionWorkspace workspace;
-  const Detection d = detect_unknown_cartons(stereo.frame, kRange, DetectionParams{}, workspace);
-  REQUIRE(d.status == DetectionStatus::kOk);
-  CHECK(d.ambiguous);
-  CHECK_THAT(d.ambiguity_reason, Catch::Contains("fattens the tops"));
-  UnknownCartonParams lenient;
-  lenient.max_edge_offset_px = 1e6;
-  const Detection unchecked =
-      detect_unknown_cartons(stereo.frame, kRange, DetectionParams{}, workspace, lenient);
-  CHECK_THAT(unchecked.ambiguity_reason, !Catch::Contains("fattens the tops"));
-  // Without an intensity image there is nothing to compare.
-  Frame depth_only = stereo.frame;
-  depth_only.intensity.clear();
-  CHECK(intensity_edge_offset(depth_only, stereo_layer.layer).samples == 0);
 }
 
 TEST_CASE("an empty size range is a clear error, not a layout", "[unknown_cartons]") {

@@ -46,6 +46,12 @@ struct LayerParams {
   /// at the edge) still shows where the layer ends when a surface is seen beyond it [m].
   double unobserved_gap_m = 0.05;
   bool reject_unobserved = false;  ///< true: a layer not fully observed ends in no_layer
+  /// A stereo camera fattens the tops (its matching window straddles their edges): where the
+  /// depth's outline lies more than this many pixel pitches outside the edges the intensity image
+  /// shows, the outline is moved in onto them and the layer points beyond are dropped. 0: never.
+  double fattened_edge_min_px = 1.0;
+  /// Offsets beyond this many pixel pitches are no matching window's: the outline is left alone.
+  double fattened_edge_max_px = 4.0;
 };
 
 /// Crust contour and polygon simplification (stage 5).
@@ -76,6 +82,10 @@ struct LayerDiagnostics {
   /// unobserved_outline_fraction > LayerParams::max_unobserved_outline_fraction: the outline
   /// there is where the depth ends, not where the layer ends (LayerResult::reason says so).
   bool outline_along_invalid = false;
+  /// How far inside the depth's outline the intensity image shows the layer's edges [m] (median
+  /// over the outline; 0 without an estimate), and how far the outline was moved in for it [m].
+  double edge_offset_m = 0.0;
+  double edges_moved_in_m = 0.0;
   double t_plane_ms = 0.0, t_layer_ms = 0.0, t_contour_ms = 0.0;
 };
 

@@ -1,0 +1,118 @@
+// trim_fattened_edges(): the outline inset with CGAL's straight skeleton, the points beyond it
+// dropped through a raster of the inset outline.
+#include "fattened_edges.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/create_offset_polygons_from_polygon_with_holes_2.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "edge_offset.hpp"
+#include "layer_raster.hpp"
+
+namespace palletd {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using CgalPolygon = CGAL::Polygon_2<Kernel>;
+using CgalPolygonWithHoles = CGAL::Polygon_with_holes_2<Kernel>;
+
+constexpr double kRaster_m = 0.001;  ///< cell of the raster that keeps or drops layer points [m]
+
+CgalPolygon to_cgal(const Ring2d& ring, bool counter_clockwise) {
+  CgalPolygon out;
+  for (const Eigen::Vector2d& p : ring) out.push_back(Kernel::Point_2(p.x(), p.y()));
+  if (out.is_simple() && (out.orientation() == CGAL::COUNTERCLOCKWISE) != counter_clockwise)
+    out.reverse_orientation();
+  return out;
+}
+
+Ring2d from_cgal(const CgalPolygon& polygon) {
+  Ring2d ring;
+  for (auto v = polygon.vertices_begin(); v != polygon.vertices_end(); ++v)
+    ring.emplace_back(CGAL::to_double(v->x()), CGAL::to_double(v->y()));
+  return ring;
+}
+
+/// The polygon moved in by inset_m (an outline that is not simple is left as it is); a piece
+/// narrower than twice the inset disappears.
+std::vector<PolygonWithHoles> inset(const PolygonWithHoles& polygon, double inset_m) {
+  CgalPolygonWithHoles in(to_cgal(polygon.outer, true));
+  if (!in.outer_boundary().is_simple()) return {polygon};
+  for (const Ring2d& hole : polygon.holes) {
+    CgalPolygon h = to_cgal(hole, false);
+    if (h.size() >= 3 && h.is_simple()) in.add_hole(std::move(h));
+  }
+  std::vector<PolygonWithHoles> out;
+  for (const auto& piece : CGAL::create_interior_skeleton_and_offset_polygons_with_holes_2(inset_m, in)) {
+    PolygonWithHoles p{from_cgal(piece->outer_boundary()), {}};
+    for (auto h = piece->holes_begin(); h != piece->holes_end(); ++h) p.holes.push_back(from_cgal(*h));
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+/// Keeps the layer points (and their pixels) that lie inside `polygons`.
+void keep_points_inside(const std::vector<PolygonWithHoles>& polygons, LayerResult& layer) {
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  for (const PolygonWithHoles& p : polygons)
+    for (const Eigen::Vector2d& v : p.outer) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  if (!(hi.x() > lo.x() && hi.y() > lo.y())) return;
+  const int w = static_cast<int>(std::ceil((hi.x() - lo.x()) / kRaster_m)) + 1;
+  const int h = static_cast<int>(std::ceil((hi.y() - lo.y()) / kRaster_m)) + 1;
+  cv::Mat1b inside(h, w, static_cast<std::uint8_t>(0));
+  std::vector<std::vector<cv::Point>> rings;
+  const auto to_cell = [&](const Eigen::Vector2d& v) {
+    return cv::Point(static_cast<int>(std::lround((v.x() - lo.x()) / kRaster_m)),
+                     static_cast<int>(std::lround((v.y() - lo.y()) / kRaster_m)));
+  };
+  for (const PolygonWithHoles& p : polygons) {
+    rings.emplace_back();
+    for (const Eigen::Vector2d& v : p.outer) rings.back().push_back(to_cell(v));
+    for (const Ring2d& hole : p.holes) {
+      rings.emplace_back();
+      for (const Eigen::Vector2d& v : hole) rings.back().push_back(to_cell(v));
+    }
+  }
+  cv::fillPoly(inside, rings, cv::Scalar(1));  // even-odd: holes stay empty
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < layer.points_2d.size(); ++i) {
+    const Eigen::Vector2f& q = layer.points_2d[i];
+    const cv::Point c = to_cell(q.cast<double>());
+    if (c.x < 0 || c.y < 0 || c.x >= w || c.y >= h || inside(c) == 0) continue;
+    layer.points_2d[kept] = q;
+    if (i < layer.point_pixels.size()) layer.point_pixels[kept] = layer.point_pixels[i];
+    ++kept;
+  }
+  layer.points_2d.resize(kept);
+  layer.point_pixels.resize(std::min(kept, layer.point_pixels.size()));
+}
+
+}  // namespace
+
+LayerResult trim_fattened_edges(const Frame& frame, LayerResult layer, const LayerParams& params) {
+  if (layer.status != DetectionStatus::kOk || !(params.fattened_edge_min_px > 0.0)) return layer;
+  const EdgeOffset edges = intensity_edge_offset(frame, layer);
+  if (edges.samples == 0) return layer;
+  layer.diagnostics.edge_offset_m = edges.offset_m;
+  const double pitch_m = layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
+  if (!(edges.offset_m > params.fattened_edge_min_px * pitch_m) ||
+      edges.offset_m > params.fattened_edge_max_px * pitch_m)
+    return layer;
+  std::vector<PolygonWithHoles> moved;
+  for (const PolygonWithHoles& polygon : layer.polygons) {
+    for (PolygonWithHoles& piece : inset(polygon, edges.offset_m)) moved.push_back(std::move(piece));
+  }
+  if (moved.empty()) return layer;  // nothing left: the offset is no fattening of these tops
+  layer.polygons = std::move(moved);
+  keep_points_inside(layer.polygons, layer);
+  layer.diagnostics.edges_moved_in_m = edges.offset_m;
+  return layer;
+}
+
+}  // namespace palletd
