@@ -182,6 +182,18 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
                                                 seam_blindness(layout)};
 }
 
+std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout) {
+  if (resolves_seams(layout)) return std::nullopt;
+  std::vector<int> formats;
+  for (const LayoutBox& b : layout.boxes) formats.push_back(b.format);
+  std::sort(formats.begin(), formats.end());
+  const auto mixed = static_cast<std::size_t>(std::unique(formats.begin(), formats.end()) - formats.begin());
+  if (mixed < 2) return std::nullopt;
+  return LevelVerdict{DetectionStatus::kOk,
+                      "the layout mixes " + std::to_string(mixed) + " formats and " + seam_blindness(layout) +
+                          ": another mix of the recipe's formats may fill the outline as well"};
+}
+
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout) {
   if (!layout.budget_exhausted || resolves_seams(layout)) return std::nullopt;
   return LevelVerdict{DetectionStatus::kOk,
@@ -199,14 +211,18 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   share.precision(2);
   share << seams.seen_share();
   const bool camera_shows_seams = resolves_seams(layout);
-  // A sheet lies over a whole layer: one piece, no holes, a rectangle. On any other shape,
-  // seamless boxes where this camera shows seams are named nothing but stay in doubt: a sheet
-  // with a torn corner, a hole where the depth drops out or a curled edge is still a sheet the
-  // gripper would take for cartons. Where it cannot show seams, such a shape is cartons.
-  const bool one_piece = layer.polygons.size() == 1 && layer.polygons.front().holes.empty();
+  // A sheet lies over a whole layer: one piece whose outline is a rectangle, no holes. Where this
+  // camera shows seams, seamless boxes on any other shape are named nothing but stay in doubt: a
+  // sheet with a torn corner, a curled edge or a hole where its depth dropped out is still a sheet
+  // the gripper would take for cartons. Where it cannot show seams, a rectangle with holes stays in
+  // doubt too (a sheet with dropouts, or cartons around a chimney, look the same), any other
+  // shape is cartons.
+  const bool one_piece = layer.polygons.size() == 1;
   const double rect_m2 =
       one_piece ? static_cast<double>(min_area_rect(layer.polygons.front().outer).size.area()) * 1e-6 : 0.0;
-  if (!one_piece || rect_m2 <= 0.0 || area(layer.polygons.front()) < kRectangleFill * rect_m2) {
+  const bool rectangle = one_piece && rect_m2 > 0.0 &&
+                         std::abs(signed_area(layer.polygons.front().outer)) >= kRectangleFill * rect_m2;
+  if (!rectangle || (camera_shows_seams && !layer.polygons.front().holes.empty())) {
     if (!camera_shows_seams) return std::nullopt;
     return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
                                                   " of their shared sides) where this camera shows seams, on "
@@ -305,6 +321,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (layout.status != DetectionStatus::kOk) return std::nullopt;
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
+  if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;
   return search_unfinished(layout);
 }
 

@@ -36,7 +36,8 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
 
 /// A layout whose interior box sides show no seam anywhere while the layer is one rectangle: a
 /// sheet covers the layer (kSlipSheet) where the sensor resolves seams; where it cannot, the
-/// result is flagged (kOk with a message for ambiguity_reason). On a layer of any other shape
+/// result is flagged (kOk with a message for ambiguity_reason), holes in the rectangle or not (a
+/// sheet's depth drops out in places). On a layer of any other shape, or a rectangle with holes,
 /// it is flagged where the sensor resolves seams (a torn or holed sheet), else left alone.
 std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,
                                        const std::vector<BoxFormat>& formats);
@@ -46,6 +47,10 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
 /// narrow seams (a coarse pitch, or no mixed pixels at edges): the outline is the same either
 /// way and nothing in the frame decides, so the layout is flagged (kOk with the sentence).
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
+
+/// A layout of two or more formats on a camera that does not show narrow seams: the formats are
+/// told apart by the outline alone, and another mix of them may fill it as well: flagged (kOk).
+std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout);
 
 /// The search ended on its budget (LayoutResult::budget_exhausted) on a camera that does not show
 /// narrow seams: only the outline decides, and the search stopped before it could rule out
@@ -57,7 +62,7 @@ std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout);
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);
 
 /// After the layout: deck_above_floor when the layout failed, is flagged or covers a slot; the
-/// slot's flag; else slip_sheet, formats_undecided, search_unfinished.
+/// slot's flag; else slip_sheet, formats_undecided, mix_by_outline, search_unfinished.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,

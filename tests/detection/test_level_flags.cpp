@@ -1,0 +1,65 @@
+// The flags level_checks.hpp raises on a camera that does not show narrow seams (a coarse pixel
+// pitch, or no mixed pixels at edges: stereo, structured light): a layout that mixes formats, a
+// search that ended on its budget. Where the camera shows seams, the seams decide and neither flags.
+#include <catch2/catch.hpp>
+
+#include "palletd/detection/layout.hpp"
+
+#include "level_checks.hpp"
+
+using namespace palletd;
+
+namespace {
+
+LayoutBox box_of(int format, double x_m) {
+  LayoutBox b;
+  b.center = Eigen::Vector2d(x_m, 0.0);
+  b.long_m = format == 0 ? 0.4 : 0.3;
+  b.short_m = format == 0 ? 0.3 : 0.2;
+  b.format = format;
+  return b;
+}
+
+/// A layout seen at `pitch_m` per pixel with mixed pixels along `rim_share` of its outline.
+LayoutResult layout_seen(double pitch_m, double rim_share, std::vector<int> formats) {
+  LayoutResult layout;
+  layout.status = DetectionStatus::kOk;
+  layout.pixel_pitch_m = pitch_m;
+  layout.rim_share = rim_share;
+  double x_m = 0.0;
+  for (const int f : formats) {
+    layout.boxes.push_back(box_of(f, x_m));
+    x_m += 0.4;
+  }
+  return layout;
+}
+
+}  // namespace
+
+TEST_CASE("a mix of formats on a camera that does not show narrow seams is flagged", "[cell][flags]") {
+  const LayoutResult stereo = layout_seen(0.004, 0.1, {0, 1, 0});  // no mixed pixels at edges
+  const std::optional<LevelVerdict> v = mix_by_outline(stereo);
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::Contains("mixes 2 formats"));
+  CHECK_THAT(v->message, Catch::Contains("no mixed pixels"));
+  const std::optional<LevelVerdict> coarse = mix_by_outline(layout_seen(0.009, 0.8, {0, 1}));
+  REQUIRE(coarse);
+  CHECK_THAT(coarse->message, Catch::Contains("cannot be resolved"));
+  // One format: nothing to mix up. A time-of-flight camera at a fine pitch: the seams decide.
+  CHECK_FALSE(mix_by_outline(layout_seen(0.004, 0.1, {1, 1, 1})));
+  CHECK_FALSE(mix_by_outline(layout_seen(0.004, 0.8, {0, 1, 0})));
+}
+
+TEST_CASE("a search that ended on its budget is flagged where only the outline decides", "[cell][flags]") {
+  LayoutResult stereo = layout_seen(0.004, 0.1, {0, 0, 0});
+  CHECK_FALSE(search_unfinished(stereo));  // finished
+  stereo.budget_exhausted = true;
+  const std::optional<LevelVerdict> v = search_unfinished(stereo);
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::Contains("ended on its budget"));
+  LayoutResult tof = layout_seen(0.004, 0.8, {0, 0, 0});
+  tof.budget_exhausted = true;
+  CHECK_FALSE(search_unfinished(tof));
+}
