@@ -194,6 +194,23 @@ std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout) {
                           ": another mix of the recipe's formats may fill the outline as well"};
 }
 
+std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, double max_sigma_mm) {
+  if (!(max_sigma_mm > 0.0)) return std::nullopt;
+  std::size_t uncertain = 0;
+  double widest_m = 0.0;
+  for (const LayoutBox& b : layout.boxes) {
+    if (!(1e3 * b.evidence.position_sigma_m > max_sigma_mm)) continue;
+    ++uncertain;
+    widest_m = std::max(widest_m, b.evidence.position_sigma_m);
+  }
+  if (uncertain == 0) return std::nullopt;
+  return LevelVerdict{DetectionStatus::kOk, std::to_string(uncertain) + " box(es) placed less surely than " +
+                                                mm(1e-3 * max_sigma_mm) + " (one sigma, up to " +
+                                                mm(widest_m) + ") at a pixel pitch of " +
+                                                mm(layout.pixel_pitch_m) +
+                                                ": the sides that hold them are not seen well enough"};
+}
+
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout) {
   if (!layout.budget_exhausted || resolves_seams(layout)) return std::nullopt;
   return LevelVerdict{DetectionStatus::kOk,
@@ -309,7 +326,7 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
-                                               const PlaneParams& validity) {
+                                               const PlaneParams& validity, double max_position_sigma_mm) {
   // A confident layout stands; a failed or flagged one on a level as low as a pallet's deck is
   // the empty pallet (stereo cameras fill the gaps between its boards, and the deck then looks
   // like one slab that boxes tile).
@@ -322,6 +339,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
   if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;
+  if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, max_position_sigma_mm)) return unsure;
   return search_unfinished(layout);
 }
 

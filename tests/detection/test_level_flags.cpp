@@ -63,3 +63,18 @@ TEST_CASE("a search that ended on its budget is flagged where only the outline d
   tof.budget_exhausted = true;
   CHECK_FALSE(search_unfinished(tof));
 }
+
+TEST_CASE("a box placed less surely than the limit flags the layout, whatever the camera", "[cell][flags]") {
+  LayoutResult layout = layout_seen(0.016, 0.8, {0, 0, 0});
+  layout.boxes[0].evidence.position_sigma_m = 0.004;
+  layout.boxes[1].evidence.position_sigma_m = 0.019;
+  layout.boxes[2].evidence.position_sigma_m = -1.0;  // not refined: nothing to judge
+  const std::optional<LevelVerdict> v = uncertain_positions(layout, 10.0);
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::StartsWith("1 box(es)") && Catch::Contains("up to 19 mm"));
+  CHECK_FALSE(uncertain_positions(layout, 20.0));
+  CHECK_FALSE(uncertain_positions(layout, 0.0));  // 0: never
+  layout.boxes[1].evidence.position_sigma_m = 0.009;
+  CHECK_FALSE(uncertain_positions(layout, 10.0));
+}

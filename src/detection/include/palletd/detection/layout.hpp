@@ -113,6 +113,10 @@ struct RefineParams {
   /// Prior spread of a box's own turn against the rest of its layer, and of a separate
   /// component's against the layer's orientation [deg]; 0 turns all boxes of a layer together.
   double yaw_sigma_deg = 0.5;
+  /// A box whose fitted position is uncertain by more than this (one sigma, the joint fit's) flags
+  /// the layout: the sides that hold it are not seen well enough to promise it within a gripper's
+  /// tolerance (a coarse pitch, cartons pressed together without seams) [mm]. 0 = never.
+  double max_position_sigma_mm = 10.0;
 };
 
 /// What the outline leaves open (src/detection/layout/completion/, the uncovered flag).
