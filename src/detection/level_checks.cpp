@@ -166,6 +166,14 @@ std::string seam_blindness(const LayoutResult& layout) {
                "filter), so seams narrower than its matching window are smoothed away";
 }
 
+/// How many of the recipe's formats the layout's boxes use.
+std::size_t formats_used(const LayoutResult& layout) {
+  std::vector<int> formats;
+  for (const LayoutBox& b : layout.boxes) formats.push_back(b.format);
+  std::sort(formats.begin(), formats.end());
+  return static_cast<std::size_t>(std::unique(formats.begin(), formats.end()) - formats.begin());
+}
+
 }  // namespace
 
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
@@ -183,12 +191,8 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
 }
 
 std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout) {
-  if (resolves_seams(layout)) return std::nullopt;
-  std::vector<int> formats;
-  for (const LayoutBox& b : layout.boxes) formats.push_back(b.format);
-  std::sort(formats.begin(), formats.end());
-  const auto mixed = static_cast<std::size_t>(std::unique(formats.begin(), formats.end()) - formats.begin());
-  if (mixed < 2) return std::nullopt;
+  const std::size_t mixed = formats_used(layout);
+  if (resolves_seams(layout) || mixed < 2) return std::nullopt;
   return LevelVerdict{DetectionStatus::kOk,
                       "the layout mixes " + std::to_string(mixed) + " formats and " + seam_blindness(layout) +
                           ": another mix of the recipe's formats may fill the outline as well"};
@@ -212,11 +216,17 @@ std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, doub
 }
 
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout) {
-  if (!layout.budget_exhausted || resolves_seams(layout)) return std::nullopt;
-  return LevelVerdict{DetectionStatus::kOk,
-                      "the layout search ended on its budget before it could rule out another layout that "
-                      "explains the outline as well, and " +
-                          seam_blindness(layout) + ": nothing but the outline decides here"};
+  if (!layout.budget_exhausted) return std::nullopt;
+  const std::string unfinished =
+      "the layout search ended on its budget before it could rule out another layout ";
+  if (!resolves_seams(layout))
+    return LevelVerdict{DetectionStatus::kOk, unfinished + "that explains the outline as well, and " +
+                                                  seam_blindness(layout) +
+                                                  ": nothing but the outline decides here"};
+  if (const std::size_t mixed = formats_used(layout); mixed >= 2)
+    return LevelVerdict{DetectionStatus::kOk, unfinished + "of the recipe's formats: this one mixes " +
+                                                  std::to_string(mixed) + " of them"};
+  return std::nullopt;
 }
 
 std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,

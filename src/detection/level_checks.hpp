@@ -57,8 +57,9 @@ std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout);
 std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, double max_sigma_mm);
 
 /// The search ended on its budget (LayoutResult::budget_exhausted) on a camera that does not show
-/// narrow seams: only the outline decides, and the search stopped before it could rule out
-/// another layout explaining it as well (a pinwheel's mirror, other formats): flagged (kOk).
+/// narrow seams (only the outline decides, and the search stopped before it could rule out
+/// another layout explaining it as well: a pinwheel's mirror, other formats), or on any camera
+/// with a layout that mixes formats (the mixes were not all weighed): flagged (kOk).
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout);
 
 /// A box of the layout lies over a slot in the layer (a hole four times longer than wide under

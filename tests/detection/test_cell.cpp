@@ -86,7 +86,7 @@ TEST_CASE("cell: the cabinet's top is the highest plane in view - the region lea
 
   params.roi = load_region();
   const Detection in_roi = detect(f.frame, kFormats, params);
-  INFO(in_roi.message);
+  INFO(in_roi.message << " " << in_roi.ambiguity_reason);
   REQUIRE(in_roi.status == DetectionStatus::kOk);
   CHECK(in_roi.boxes.size() == 6);
   CHECK_FALSE(in_roi.ambiguous);

@@ -78,3 +78,13 @@ TEST_CASE("a box placed less surely than the limit flags the layout, whatever th
   layout.boxes[1].evidence.position_sigma_m = 0.009;
   CHECK_FALSE(uncertain_positions(layout, 10.0));
 }
+
+TEST_CASE("a search that ended on its budget with a mix of formats is flagged on any camera",
+          "[cell][flags]") {
+  LayoutResult tof = layout_seen(0.004, 0.8, {0, 1, 1});
+  CHECK_FALSE(search_unfinished(tof));  // finished: the seams weighed every mix
+  tof.budget_exhausted = true;
+  const std::optional<LevelVerdict> v = search_unfinished(tof);
+  REQUIRE(v);
+  CHECK_THAT(v->message, Catch::Contains("mixes 2 of them"));
+}

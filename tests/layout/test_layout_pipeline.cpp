@@ -107,7 +107,9 @@ static BundledRun run_bundled(const std::string& name) {
     formats.push_back({truth->recipe_mm[i][0] / 1000.0, truth->recipe_mm[i][1] / 1000.0, fname});
     names.push_back(fname);
   }
-  BundledRun run{detect(*frame, formats, DetectionParams{}), {}};
+  DetectionParams params;
+  params.layout.search.time_budget_ms = 60000.0;  // the expansion budget ends the search, as when idle
+  BundledRun run{detect(*frame, formats, params), {}};
   run.eval = evaluate_frame(run.detection, *truth, names);
   return run;
 }
