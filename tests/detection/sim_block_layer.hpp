@@ -1,4 +1,4 @@
-// A simulated full block layer that the cell tests share (picking, confidence).
+// Simulated layers that the cell tests share (picking, confidence, unknown cartons, fattened edges).
 #pragma once
 
 #include <cstdint>
@@ -24,6 +24,24 @@ inline sim::Scene block_layer_scene(std::uint64_t seed) {
   Expected<sim::Scene> scene = sim::make_scene(options, profile, seed);
   REQUIRE(scene);
   return *scene;
+}
+
+/// A layer of one format in `pattern`, one level below it, seen by `profile` from 1.6-1.9 m with
+/// at most 5 deg of tilt and gaps up to gap_max_m.
+inline sim::SimulatedFrame render_layer(sim::PatternFamily pattern, const char* format, const char* profile,
+                                        std::uint64_t seed, double gap_max_m = 0.006) {
+  const sim::SensorProfile p = *sim::profile_by_name(profile);
+  sim::ScenarioOptions options;
+  options.pattern = pattern;
+  options.formats = {*sim::parse_format(format)};
+  options.lower_layers_min = options.lower_layers_max = 1;
+  options.height_min_m = 1.6;
+  options.height_max_m = 1.9;
+  options.tilt_max_deg = 5.0;
+  options.gap_max_m = gap_max_m;
+  Expected<sim::Scene> scene = sim::make_scene(options, p, seed);
+  REQUIRE(scene);
+  return sim::render(*scene, p, seed);
 }
 
 }  // namespace palletd::testing

@@ -11,6 +11,7 @@
 #include "palletd/sim/sim.hpp"
 
 #include "edge_offset.hpp"
+#include "sim_block_layer.hpp"
 
 using namespace palletd;
 
@@ -19,18 +20,7 @@ namespace {
 const BoxFormat kNominal{0.400, 0.300, "400x300", 0.0};
 
 sim::SimulatedFrame block_layer(const char* profile, std::uint64_t seed) {
-  const sim::SensorProfile p = *sim::profile_by_name(profile);
-  sim::ScenarioOptions options;
-  options.pattern = sim::PatternFamily::kBlock;
-  options.formats = {*sim::parse_format("400x300x250")};
-  options.lower_layers_min = options.lower_layers_max = 1;
-  options.height_min_m = 1.6;
-  options.height_max_m = 1.9;
-  options.tilt_max_deg = 5.0;
-  options.gap_max_m = 0.006;
-  Expected<sim::Scene> scene = sim::make_scene(options, p, seed);
-  REQUIRE(scene);
-  return sim::render(*scene, p, seed);
+  return testing::render_layer(sim::PatternFamily::kBlock, "400x300x250", profile, seed);
 }
 
 DetectionParams untrimmed() {

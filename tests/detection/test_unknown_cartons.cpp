@@ -13,24 +13,9 @@
 #include "sim_block_layer.hpp"
 
 using namespace palletd;
+using palletd::testing::render_layer;
 
 namespace {
-
-sim::SimulatedFrame render_layer(sim::PatternFamily pattern, const char* format, const char* profile,
-                                 std::uint64_t seed, double gap_max_m = 0.006) {
-  const sim::SensorProfile p = *sim::profile_by_name(profile);
-  sim::ScenarioOptions options;
-  options.pattern = pattern;
-  options.formats = {*sim::parse_format(format)};
-  options.lower_layers_min = options.lower_layers_max = 1;
-  options.height_min_m = 1.6;
-  options.height_max_m = 1.9;
-  options.tilt_max_deg = 5.0;
-  options.gap_max_m = gap_max_m;
-  Expected<sim::Scene> scene = sim::make_scene(options, p, seed);
-  REQUIRE(scene);
-  return sim::render(*scene, p, seed);
-}
 
 const SizeRange kRange{0.2, 0.8, 0.15, 0.6};
 
