@@ -153,6 +153,7 @@ nlohmann::json to_json(const FrameEval& f) {
           {"unflagged_wrong", f.unflagged_wrong},
           {"outline_tied", f.outline_tied},
           {"runtime_ms", f.runtime_ms},
+          {"timing_ms", f.timing_ms},
           {"layout_confidence", f.layout_confidence},
           {"outline_unobserved", f.outline_unobserved},
           {"recipe_wrong", f.recipe_wrong},

@@ -104,6 +104,7 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
   e.detected_boxes = detection.boxes.size();
   auto total = detection.timing_ms.find("total");
   e.runtime_ms = total != detection.timing_ms.end() ? total->second : 0.0;
+  e.timing_ms = detection.timing_ms;
 
   const double big = 1e6;
   std::vector<std::vector<double>> cost(truth.boxes.size(), std::vector<double>(detection.boxes.size(), big));

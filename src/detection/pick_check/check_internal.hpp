@@ -42,7 +42,7 @@ class Grid {
 
  private:
   Eigen::Vector2d lo_m_;
-  double cell_m_;
+  double inv_cell_;  ///< 1 / the cell size [1/m]
   int nx_ = 0, ny_ = 0;
   std::vector<Seen> cells_;
 };

@@ -15,7 +15,7 @@ double grid_cell_m(const Intrinsics& intrinsics, const LayerResult& layer) {
 }
 
 Grid::Grid(const Eigen::Vector2d& lo_m, const Eigen::Vector2d& hi_m, double cell_m)
-    : lo_m_(lo_m), cell_m_(cell_m) {
+    : lo_m_(lo_m), inv_cell_(1.0 / cell_m) {
   nx_ = std::max(1, static_cast<int>(std::ceil((hi_m.x() - lo_m.x()) / cell_m)));
   ny_ = std::max(1, static_cast<int>(std::ceil((hi_m.y() - lo_m.y()) / cell_m)));
   cells_.assign(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_), Seen::kUnknown);
@@ -23,33 +23,35 @@ Grid::Grid(const Eigen::Vector2d& lo_m, const Eigen::Vector2d& hi_m, double cell
 
 void Grid::add_frame(const Frame& frame, const RayTable& rays, const Eigen::Isometry3d& T_layer_camera,
                      double band_m, double drop_m) {
+  // Per pixel: its height over the layer first (most pixels are decided by it), then its cell.
   const Eigen::Matrix3d R = T_layer_camera.linear();
   const Eigen::Vector3d t = T_layer_camera.translation();
   for (std::size_t i = 0; i < frame.pixel_count(); ++i) {
     if (frame.depth[i] == 0) continue;
     const double z_m = static_cast<double>(frame.depth[i]) * frame.depth_scale_m;
-    const Eigen::Vector3d q = R * Eigen::Vector3d(rays.ray(i).x() * z_m, rays.ray(i).y() * z_m, z_m) + t;
+    const double x_m = static_cast<double>(rays.ray(i).x()) * z_m,
+                 y_m = static_cast<double>(rays.ray(i).y()) * z_m;
+    const double qz = R(2, 0) * x_m + R(2, 1) * y_m + R(2, 2) * z_m + t.z();
     Seen seen = Seen::kUnknown;
-    if (std::abs(q.z()) <= band_m)
+    if (std::abs(qz) <= band_m)
       seen = Seen::kTop;
-    else if (q.z() < -drop_m)
+    else if (qz < -drop_m)
       seen = Seen::kLower;
     else
       continue;
-    const int cx = static_cast<int>(std::floor((q.x() - lo_m_.x()) / cell_m_));
-    const int cy = static_cast<int>(std::floor((q.y() - lo_m_.y()) / cell_m_));
-    if (cx < 0 || cy < 0 || cx >= nx_ || cy >= ny_) continue;
+    const double fx = (R(0, 0) * x_m + R(0, 1) * y_m + R(0, 2) * z_m + t.x() - lo_m_.x()) * inv_cell_;
+    const double fy = (R(1, 0) * x_m + R(1, 1) * y_m + R(1, 2) * z_m + t.y() - lo_m_.y()) * inv_cell_;
+    if (!(fx >= 0.0 && fy >= 0.0 && fx < nx_ && fy < ny_)) continue;
     Seen& cell =
-        cells_[static_cast<std::size_t>(cy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(cx)];
+        cells_[static_cast<std::size_t>(fy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(fx)];
     if (cell != Seen::kTop) cell = seen;
   }
 }
 
 Seen Grid::at(const Eigen::Vector2d& p_m) const {
-  const int cx = static_cast<int>(std::floor((p_m.x() - lo_m_.x()) / cell_m_));
-  const int cy = static_cast<int>(std::floor((p_m.y() - lo_m_.y()) / cell_m_));
-  if (cx < 0 || cy < 0 || cx >= nx_ || cy >= ny_) return Seen::kUnknown;
-  return cells_[static_cast<std::size_t>(cy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(cx)];
+  const double fx = (p_m.x() - lo_m_.x()) * inv_cell_, fy = (p_m.y() - lo_m_.y()) * inv_cell_;
+  if (!(fx >= 0.0 && fy >= 0.0 && fx < nx_ && fy < ny_)) return Seen::kUnknown;
+  return cells_[static_cast<std::size_t>(fy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(fx)];
 }
 
 double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_cells) {

@@ -1,6 +1,7 @@
 // palletd io: scoring detections against truth files (for `palletctl eval` and the benchmarks).
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,7 @@ struct FrameEval {
   /// Not exact, yet an ok status not flagged ambiguous: a wrong answer the PLC would act on.
   bool unflagged_wrong = false;
   double runtime_ms = 0.0;
+  std::map<std::string, double> timing_ms;  ///< Detection::timing_ms (per stage)
   std::vector<BoxEval> boxes;       ///< per detected box, in the detection's order
   double layout_confidence = 0.0;   ///< Detection::layout_confidence
   bool outline_unobserved = false;  ///< Detection::outline_unobserved
