@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <Eigen/Eigenvalues>
 #include <pcl/console/print.h>
@@ -293,18 +294,21 @@ RansacInput points_above(const OrganizedCloud& cloud, const Plane& plane, const 
   const Eigen::Vector3f n = plane.normal.cast<float>();
   const auto d = static_cast<float>(plane.d);
   const auto step = static_cast<float>(kMaxBand);
-  std::size_t count = 0;
-  for (const Eigen::Vector3f& p : cloud.points)
-    if (usable(p, params) && n.dot(p) + d > step) ++count;
+  std::vector<int> above;  // pixel indices, row-major
+  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+    const Eigen::Vector3f& p = cloud.points[i];
+    if (usable(p, params) && n.dot(p) + d > step) above.push_back(static_cast<int>(i));
+  }
   RansacInput in = like;
   in.points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  in.stride_px = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(count) / kRansacPoints))));
+  in.stride_px = std::max(
+      1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(above.size()) / kRansacPoints))));
   const int stride = in.stride_px;
-  for (int v = stride / 2; v < cloud.height; v += stride) {
-    for (int u = stride / 2; u < cloud.width; u += stride) {
-      const Eigen::Vector3f& p = cloud.at(u, v);
-      if (usable(p, params) && n.dot(p) + d > step) in.points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
-    }
+  for (const int i : above) {  // the pixels (stride / 2 + k stride, stride / 2 + l stride)
+    const int u = i % cloud.width, v = i / cloud.width;
+    if (u % stride != stride / 2 || v % stride != stride / 2) continue;
+    const Eigen::Vector3f& p = cloud.points[static_cast<std::size_t>(i)];
+    in.points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
   }
   return in;
 }

@@ -27,9 +27,10 @@ struct LayerRasterGeometry {
   /// ray is parallel to the plane, the plane lies behind the camera, or the point is off the raster.
   bool cell_of(int u, int v, double* fx, double* fy) const {
     const double den = H_cell_pixel(2, 0) * u + H_cell_pixel(2, 1) * v + H_cell_pixel(2, 2);  // n . r
-    if (std::abs(den) < 1e-12 || -plane_d / den <= 0) return false;
-    *fx = (H_cell_pixel(0, 0) * u + H_cell_pixel(0, 1) * v + H_cell_pixel(0, 2)) / den;
-    *fy = (H_cell_pixel(1, 0) * u + H_cell_pixel(1, 1) * v + H_cell_pixel(1, 2)) / den;
+    if (std::abs(den) < 1e-12 || -plane_d * den <= 0) return false;  // the plane behind the camera
+    const double inv_den = 1.0 / den;
+    *fx = (H_cell_pixel(0, 0) * u + H_cell_pixel(0, 1) * v + H_cell_pixel(0, 2)) * inv_den;
+    *fy = (H_cell_pixel(1, 0) * u + H_cell_pixel(1, 1) * v + H_cell_pixel(1, 2)) * inv_den;
     return *fx >= 0 && *fy >= 0 && *fx < width && *fy < height;
   }
 };

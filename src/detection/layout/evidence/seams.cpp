@@ -152,6 +152,11 @@ std::vector<int> pixel_cells(const layout_detail::LayerRasterGeometry& geo, cons
 double seam_depth_step_m(const OrganizedCloud& cloud, const Plane& plane, const std::vector<int>& cell_of,
                          const std::vector<std::uint8_t>& mask_cells, const LayerResult& layer,
                          const SeamParams& params) {
+  const auto step_for = [&](double sigma_m) {
+    return std::max(params.depth_step_m, params.depth_noise_k * (std::isfinite(sigma_m) ? sigma_m : 0.0));
+  };
+  const double layer_sigma_m = layer.diagnostics.plane_sigma_m;
+  if (layer_sigma_m > 0.0) return step_for(layer_sigma_m);
   std::vector<double> residuals;
   for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
     const int c = cell_of[pix];
@@ -159,31 +164,48 @@ double seam_depth_step_m(const OrganizedCloud& cloud, const Plane& plane, const 
     const Eigen::Vector3f& p = cloud.points[pix];
     if (std::isfinite(p.x()) && std::isfinite(p.z())) residuals.push_back(plane.signed_distance(p.cast<double>()));
   }
-  double sigma_m = layer.diagnostics.plane_sigma_m;
-  if (!(sigma_m > 0.0) && residuals.size() >= kMinNoiseSamples) {
-    sigma_m = kMadToSigma * median_abs_deviation(residuals);
+  if (residuals.size() < kMinNoiseSamples) return step_for(layer_sigma_m);
+  return step_for(kMadToSigma * median_abs_deviation(std::move(residuals)));
+}
+
+/// The value at sorted index n / 2 of a histogram of `n` integers (counts[k] of value k - offset):
+/// upper_median() of the values themselves.
+int histogram_upper_median(const std::vector<std::uint32_t>& counts, int offset, std::size_t n) {
+  std::size_t seen = 0;
+  for (std::size_t k = 0; k < counts.size(); ++k) {
+    seen += counts[k];
+    if (seen > n / 2) return static_cast<int>(k) - offset;
   }
-  return std::max(params.depth_step_m, params.depth_noise_k * (std::isfinite(sigma_m) ? sigma_m : 0.0));
+  return static_cast<int>(counts.size()) - 1 - offset;
 }
 
 /// The intensity noise on the layer [intensity counts], from the MAD of horizontally neighbouring
 /// pixels' differences inside the mask (the tops' shading does not reach them); 0 when the
-/// intensity is not used (none, weight 0, or too few differences).
+/// intensity is not used (none, weight 0, or too few differences). The differences are integers:
+/// their median and MAD come from histograms.
 double intensity_noise(const Frame& frame, const std::vector<int>& cell_of,
                        const std::vector<std::uint8_t>& mask_cells, const SeamParams& params) {
   const bool use_intensity = frame.has_intensity() && params.intensity_weight > 0 &&
                              frame.intensity.size() == frame.pixel_count();
   if (!use_intensity) return 0.0;
-  std::vector<double> diffs;
+  constexpr int kOffset = 65535;  // differences of 16-bit counts lie in [-kOffset, kOffset]
+  std::vector<std::uint32_t> diffs(2 * kOffset + 1, 0);
+  std::size_t n = 0;
   const auto width = static_cast<std::size_t>(frame.intrinsics.width);
   for (std::size_t pix = 0; pix + 1 < cell_of.size(); ++pix) {
     const int c = cell_of[pix];
     if (c < 0 || cell_of[pix + 1] < 0 || (pix + 1) % width == 0) continue;
     if (mask_cells[static_cast<std::size_t>(c)] == 0) continue;
-    diffs.push_back(static_cast<double>(frame.intensity[pix + 1]) - static_cast<double>(frame.intensity[pix]));
+    ++diffs[static_cast<std::size_t>(int{frame.intensity[pix + 1]} - int{frame.intensity[pix]} + kOffset)];
+    ++n;
   }
-  if (diffs.size() < kMinNoiseSamples) return 0.0;
-  return std::max(kMadToSigma * median_abs_deviation(std::move(diffs)) / std::sqrt(2.0), kMinIntensitySigma);
+  if (n < kMinNoiseSamples) return 0.0;
+  const int median = histogram_upper_median(diffs, kOffset, n);
+  std::vector<std::uint32_t> deviations(2 * kOffset + 1, 0);
+  for (std::size_t k = 0; k < diffs.size(); ++k)
+    deviations[static_cast<std::size_t>(std::abs(static_cast<int>(k) - kOffset - median))] += diffs[k];
+  const int mad = histogram_upper_median(deviations, 0, n);
+  return std::max(kMadToSigma * mad / std::sqrt(2.0), kMinIntensitySigma);
 }
 
 /// What scoring a pixel's seam-likeness takes.

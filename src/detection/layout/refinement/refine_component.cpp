@@ -95,10 +95,14 @@ std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
     e.jb.half_nominal = e.along_x ? Eigen::Vector2d(nl / 2, ns / 2) : Eigen::Vector2d(ns / 2, nl / 2);
     // Points a gap beyond the window: an outline edge is seen where its points end.
     const double collect = window + 5.0 * ctx.pitch_m;
-    const double reach = e.jb.half.norm() + collect;
+    // The layer-frame bounds of the collected rectangle (turned by the frame's theta); 1 um more
+    // for the rounding of the frame's transform.
+    const double a_x = e.jb.half.x() + collect, a_y = e.jb.half.y() + collect;
+    const double c = std::abs(std::cos(cf.frame.theta_rad)), s = std::abs(std::sin(cf.frame.theta_rad));
+    const double reach_x = c * a_x + s * a_y + 1e-6, reach_y = s * a_x + c * a_y + 1e-6;
     std::size_t inside = 0;
-    ctx.grid.visit(box.center.x() - reach, box.center.y() - reach, box.center.x() + reach,
-                   box.center.y() + reach, [&](const Eigen::Vector2f& p) {
+    ctx.grid.visit(box.center.x() - reach_x, box.center.y() - reach_y, box.center.x() + reach_x,
+                   box.center.y() + reach_y, [&](const Eigen::Vector2f& p) {
                      const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(p.cast<double>()));
                      const Eigen::Vector2d d = (q - e.jb.center).cwiseAbs();
                      if (d.x() > e.jb.half.x() + collect || d.y() > e.jb.half.y() + collect) return;
