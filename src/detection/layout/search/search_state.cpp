@@ -23,7 +23,8 @@ namespace {
 // Calls fn(word, mask) for each 64-bit word the bit range [start, start + len) touches, with the
 // bits of the range inside that word; stops early when fn returns false.
 template <typename Fn>
-bool for_each_range_word(int start, int len, Fn&& fn) {
+[[gnu::always_inline]] inline bool for_each_range_word(int start, int len,
+                                                       Fn&& fn) {  // on the search's hot path
   int pos = start;
   const int end = start + len;
   while (pos < end) {
@@ -70,8 +71,10 @@ void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
       break;
     }
     const int c = n.cursor;
-    if ((occ[c >> 6] >> (c & 63)) & 1U) {
-      ++n.cursor;
+    if ((occ[c >> 6] >> (c & 63)) & 1U) {  // covered: on to the next free cell of the word, or the next word
+      const std::uint64_t free_bits = ~occ[c >> 6] >> (c & 63);
+      n.cursor = free_bits == 0 ? ((c >> 6) + 1) << 6 : c + __builtin_ctzll(free_bits);
+      n.cursor = std::min(n.cursor, ncells);
       continue;
     }
     bool any = false;
