@@ -25,6 +25,10 @@ constexpr double kSeamlessShare = 0.1;
 constexpr double kResolvableSeam_m = 0.006;
 /// The layer is one rectangle when it fills at least this share of its minimum-area rectangle.
 constexpr double kRectangleFill = 0.95;
+/// A hole in a layer's outline smaller than a square of this side is depth that dropped out on a
+/// top (a glint, dark print, tape), not a place where a carton stands lower or is missing: the
+/// smallest chimney of a pinwheel is the difference of a carton's sides, 80 mm and more [m].
+constexpr double kDropoutHole_m = 0.04;
 /// A sheet covers a whole layer: a tiling of at least this many boxes (a stepped remainder of one
 /// to three cartons is no sheet).
 constexpr std::size_t kMinSheetBoxes = 4;
@@ -174,6 +178,13 @@ std::size_t formats_used(const LayoutResult& layout) {
   return static_cast<std::size_t>(std::unique(formats.begin(), formats.end()) - formats.begin());
 }
 
+/// Whether the piece has a hole a carton could leave (not a dropout: kDropoutHole_m).
+bool has_carton_sized_hole(const PolygonWithHoles& piece) {
+  return std::any_of(piece.holes.begin(), piece.holes.end(), [](const Ring2d& hole) {
+    return std::abs(signed_area(hole)) >= kDropoutHole_m * kDropoutHole_m;
+  });
+}
+
 }  // namespace
 
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
@@ -238,18 +249,18 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   share.precision(2);
   share << seams.seen_share();
   const bool camera_shows_seams = resolves_seams(layout);
-  // A sheet lies over a whole layer: one piece whose outline is a rectangle, no holes. Where this
-  // camera shows seams, seamless boxes on any other shape are named nothing but stay in doubt: a
-  // sheet with a torn corner, a curled edge or a hole where its depth dropped out is still a sheet
-  // the gripper would take for cartons. Where it cannot show seams, a rectangle with holes stays in
-  // doubt too (a sheet with dropouts, or cartons around a chimney, look the same), any other
-  // shape is cartons.
+  // A sheet lies over a whole layer: one piece whose outline is a rectangle, without holes but
+  // dropouts (kDropoutHole_m). Where this camera shows seams, seamless boxes on any other shape (a
+  // sheet with a torn corner or a curled edge, or sagging into a chimney) are named nothing but
+  // stay in doubt: it may still be a sheet the gripper would take for cartons. Where it cannot
+  // show seams, a rectangle with holes stays in doubt too (a sheet with dropouts, or cartons around
+  // a chimney, look the same), any other shape is cartons.
   const bool one_piece = layer.polygons.size() == 1;
   const double rect_m2 =
       one_piece ? static_cast<double>(min_area_rect(layer.polygons.front().outer).size.area()) * 1e-6 : 0.0;
   const bool rectangle = one_piece && rect_m2 > 0.0 &&
                          std::abs(signed_area(layer.polygons.front().outer)) >= kRectangleFill * rect_m2;
-  if (!rectangle || (camera_shows_seams && !layer.polygons.front().holes.empty())) {
+  if (!rectangle || (camera_shows_seams && has_carton_sized_hole(layer.polygons.front()))) {
     if (!camera_shows_seams) return std::nullopt;
     return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
                                                   " of their shared sides) where this camera shows seams, on "

@@ -123,27 +123,37 @@ TEST_CASE("a slip sheet is never an unflagged layout, at a fine pitch it is a sl
   }
 }
 
+namespace {
+
+/// The frame with a square patch `side_m` across without depth (a shiny label, a glint) in the
+/// middle of the layer `d` found.
+Frame with_patch(Frame frame, const Detection& d, double side_m) {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2f& p : d.layer.points_2d) mean += p.cast<double>();
+  mean /= static_cast<double>(d.layer.points_2d.size());
+  const Eigen::Vector3d c = d.layer.T_camera_layer * Eigen::Vector3d(mean.x(), mean.y(), 0.0);
+  const Intrinsics& in = frame.intrinsics;
+  const auto u0 = static_cast<int>(in.fx * c.x() / c.z() + in.cx);
+  const auto v0 = static_cast<int>(in.fy * c.y() / c.z() + in.cy);
+  const int r = static_cast<int>(0.5 * side_m * in.fx / c.z()) + 1;
+  for (int v = v0 - r; v < v0 + r; ++v)
+    for (int u = u0 - r; u < u0 + r; ++u)
+      frame.depth[static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) +
+                  static_cast<std::size_t>(u)] = 0;
+  return frame;
+}
+
+}  // namespace
+
 TEST_CASE("a sheet with a hole where the depth drops out is flagged, never an unflagged layout", "[cell][sheet]") {
   // helios2 shows narrow seams (the whole sheet is named), o3d303 at 8-9 mm per pixel does not.
   for (const char* profile : {"helios2", "o3d303"}) {
-    sim::SimulatedFrame f = render_family(sim::SceneFamily::kSlipSheet, profile, 5);
+    const sim::SimulatedFrame f = render_family(sim::SceneFamily::kSlipSheet, profile, 5);
     const Detection whole = detect(f.frame, formats_of(f), DetectionParams{});
     CAPTURE(profile, to_string(whole.status), whole.message, whole.ambiguity_reason);
     REQUIRE_FALSE((whole.status == DetectionStatus::kOk && !whole.ambiguous));
-    // The layer's middle and a patch around it without depth (a shiny label), 70 mm across.
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (const Eigen::Vector2f& p : whole.layer.points_2d) mean += p.cast<double>();
-    mean /= static_cast<double>(whole.layer.points_2d.size());
-    const Eigen::Vector3d c = whole.layer.T_camera_layer * Eigen::Vector3d(mean.x(), mean.y(), 0.0);
-    const Intrinsics& in = f.frame.intrinsics;
-    const auto u0 = static_cast<int>(in.fx * c.x() / c.z() + in.cx);
-    const auto v0 = static_cast<int>(in.fy * c.y() / c.z() + in.cy);
-    const int r = static_cast<int>(0.035 * in.fx / c.z()) + 1;
-    for (int v = v0 - r; v < v0 + r; ++v)
-      for (int u = u0 - r; u < u0 + r; ++u)
-        f.frame.depth[static_cast<std::size_t>(v) * static_cast<std::size_t>(in.width) +
-                      static_cast<std::size_t>(u)] = 0;
-    const Detection d = detect(f.frame, formats_of(f), DetectionParams{});
+    // A patch 70 mm across: as wide as the chimney a pinwheel of cartons leaves.
+    const Detection d = detect(with_patch(f.frame, whole, 0.07), formats_of(f), DetectionParams{});
     CAPTURE(to_string(d.status), d.message, d.ambiguity_reason, d.layer.polygons.size(), d.boxes.size(),
             d.interior_seams.seen_share(), d.interior_seams.length_m, whole.interior_seams.seen_share());
     REQUIRE(d.layer.polygons.size() == 1);
@@ -155,6 +165,19 @@ TEST_CASE("a sheet with a hole where the depth drops out is flagged, never an un
                Catch::Contains(fine_pitch ? "a slip sheet cannot be ruled out"
                                           : "a slip sheet and tightly packed cartons look the same"));
   }
+}
+
+TEST_CASE("a sheet with a dropout smaller than any chimney is still named a sheet", "[cell][sheet]") {
+  const sim::SimulatedFrame f = render_family(sim::SceneFamily::kSlipSheet, "helios2", 5);
+  const Detection whole = detect(f.frame, formats_of(f), DetectionParams{});
+  REQUIRE(whole.status == DetectionStatus::kSlipSheet);
+  // 30 mm across: a hole in the layer (about 10 x 10 pixels), no place for a carton.
+  const Detection d = detect(with_patch(f.frame, whole, 0.03), formats_of(f), DetectionParams{});
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason, d.boxes.size());
+  REQUIRE(d.layer.polygons.size() == 1);
+  CHECK(d.layer.polygons.front().holes.size() == 1);
+  CHECK(d.status == DetectionStatus::kSlipSheet);
+  CHECK(d.boxes.empty());
 }
 
 TEST_CASE("one box or two of another format: flagged where the camera cannot show the seam between",
