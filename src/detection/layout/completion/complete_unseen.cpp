@@ -224,18 +224,19 @@ class Completer {
           for (const Anchor& y : by) {
             const Rect r{x.box_on_plus ? x.pos : x.pos - w, y.box_on_plus ? y.pos : y.pos - h,
                          x.box_on_plus ? x.pos + w : x.pos, y.box_on_plus ? y.pos + h : y.pos};
+            // A completion: part of the box is unseen, little of it is seen lower (the tables'
+            // constant-time tests first: most places fail them), it takes little of the boxes,
+            // and the layer with what is unseen carries it as the search's A_min would.
+            const double unseen = table_.area(LayerSurroundings::kUnseen, r);
+            const double below = table_.area(LayerSurroundings::kBelow, r);
+            if (unseen < 0.05 * box_area || below > (1.0 - params_.search.a_min_fraction) * box_area) continue;
             double taken = 0.0;
             for (const auto& b : boxes) taken += overlap(r, b.rect);
             if (taken >= params_.search.a_max_fraction * box_area) continue;
             const double on_layer = clipped_area(poly_, r.x0, r.y0, r.x1, r.y1);
             const double gain = on_layer - taken;
             if (gain < kOpenFraction * box_area) continue;
-            const double unseen = table_.area(LayerSurroundings::kUnseen, r);
-            const double below = table_.area(LayerSurroundings::kBelow, r);
             const double level_off = std::max(0.0, table_.area(LayerSurroundings::kLevel, r) - on_layer);
-            // A completion: part of the box is unseen, little of it is seen lower, and the layer
-            // with what is unseen carries it as the search's A_min would.
-            if (unseen < 0.05 * box_area || below > (1.0 - params_.search.a_min_fraction) * box_area) continue;
             if (on_layer + unseen + level_off < params_.search.a_min_fraction * box_area) continue;
             if (gain < params_.completion.unseen_min_fraction * box_area) {
               *open = true;
