@@ -209,8 +209,10 @@ std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout) {
                           ": another mix of the recipe's formats may fill the outline as well"};
 }
 
-std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, double max_sigma_mm) {
-  if (!(max_sigma_mm > 0.0)) return std::nullopt;
+std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, const RefineParams& refine) {
+  if (!(refine.max_position_sigma_mm > 0.0)) return std::nullopt;
+  const double max_sigma_mm =
+      std::max(refine.max_position_sigma_mm, refine.max_position_sigma_px * 1e3 * layout.pixel_pitch_m);
   std::size_t uncertain = 0;
   double widest_m = 0.0;
   for (const LayoutBox& b : layout.boxes) {
@@ -347,7 +349,7 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
-                                               const PlaneParams& validity, double max_position_sigma_mm) {
+                                               const PlaneParams& validity, const RefineParams& refine) {
   // A confident layout stands; a failed or flagged one on a level as low as a pallet's deck is
   // the empty pallet (stereo cameras fill the gaps between its boards, and the deck then looks
   // like one slab that boxes tile).
@@ -360,7 +362,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
   if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;
-  if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, max_position_sigma_mm)) return unsure;
+  if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, refine)) return unsure;
   return search_unfinished(layout);
 }
 

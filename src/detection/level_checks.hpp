@@ -52,9 +52,10 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
 /// told apart by the outline alone, and another mix of them may fill it as well: flagged (kOk).
 std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout);
 
-/// Boxes whose fitted position is uncertain by more than max_sigma_mm (one sigma; LayoutBox
-/// evidence position_sigma_m): flagged (kOk); 0 = never.
-std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, double max_sigma_mm);
+/// Boxes whose fitted position is uncertain (one sigma; LayoutBox evidence position_sigma_m) by
+/// more than refine.max_position_sigma_mm and more than refine.max_position_sigma_px pixel
+/// pitches: flagged (kOk); max_position_sigma_mm 0 = never.
+std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, const RefineParams& refine);
 
 /// The search ended on its budget (LayoutResult::budget_exhausted) on a camera that does not show
 /// narrow seams (only the outline decides, and the search stopped before it could rule out
@@ -68,11 +69,11 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
 
 /// After the layout: deck_above_floor when the layout failed, is flagged or covers a slot; the
 /// slot's flag; else slip_sheet, formats_undecided, mix_by_outline, uncertain_positions
-/// (max_position_sigma_mm), search_unfinished.
+/// (`refine`), search_unfinished.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
-                                               const PlaneParams& validity, double max_position_sigma_mm);
+                                               const PlaneParams& validity, const RefineParams& refine);
 
 /// Fills height_above_pallet_m and layers_remaining; flags the result (ambiguous, with a reason)
 /// when the height is not a whole number of box heights.

@@ -64,19 +64,45 @@ TEST_CASE("a search that ended on its budget is flagged where only the outline d
   CHECK_FALSE(search_unfinished(tof));
 }
 
+namespace {
+
+RefineParams position_limits(double max_mm, double max_px) {
+  RefineParams refine;
+  refine.max_position_sigma_mm = max_mm;
+  refine.max_position_sigma_px = max_px;
+  return refine;
+}
+
+}  // namespace
+
 TEST_CASE("a box placed less surely than the limit flags the layout, whatever the camera", "[cell][flags]") {
-  LayoutResult layout = layout_seen(0.016, 0.8, {0, 0, 0});
+  LayoutResult layout = layout_seen(0.004, 0.8, {0, 0, 0});
   layout.boxes[0].evidence.position_sigma_m = 0.004;
   layout.boxes[1].evidence.position_sigma_m = 0.019;
   layout.boxes[2].evidence.position_sigma_m = -1.0;  // not refined: nothing to judge
-  const std::optional<LevelVerdict> v = uncertain_positions(layout, 10.0);
+  const std::optional<LevelVerdict> v = uncertain_positions(layout, position_limits(10.0, 2.0));
   REQUIRE(v);
   CHECK(v->status == DetectionStatus::kOk);
   CHECK_THAT(v->message, Catch::StartsWith("1 box(es)") && Catch::Contains("up to 19 mm"));
-  CHECK_FALSE(uncertain_positions(layout, 20.0));
-  CHECK_FALSE(uncertain_positions(layout, 0.0));  // 0: never
+  CHECK_FALSE(uncertain_positions(layout, position_limits(20.0, 2.0)));
+  CHECK_FALSE(uncertain_positions(layout, position_limits(0.0, 2.0)));  // 0: never
+  CHECK(RefineParams{}.max_position_sigma_mm > 0.0);                    // on by default
+  CHECK(uncertain_positions(layout, RefineParams{}));
   layout.boxes[1].evidence.position_sigma_m = 0.009;
-  CHECK_FALSE(uncertain_positions(layout, 10.0));
+  CHECK_FALSE(uncertain_positions(layout, position_limits(10.0, 2.0)));
+}
+
+TEST_CASE("the position limit grows with the pixel pitch: a coarse camera places a side to a pixel",
+          "[cell][flags]") {
+  // 16 mm per pixel: 2 pitches are 32 mm, so 19 mm is as well as this camera places a side.
+  LayoutResult coarse = layout_seen(0.016, 0.8, {0, 0, 0});
+  coarse.boxes[1].evidence.position_sigma_m = 0.019;
+  CHECK_FALSE(uncertain_positions(coarse, position_limits(10.0, 2.0)));
+  CHECK(uncertain_positions(coarse, position_limits(10.0, 0.0)));  // the millimetres alone
+  coarse.boxes[1].evidence.position_sigma_m = 0.040;
+  const std::optional<LevelVerdict> v = uncertain_positions(coarse, position_limits(10.0, 2.0));
+  REQUIRE(v);
+  CHECK_THAT(v->message, Catch::Contains("less surely than 32 mm") && Catch::Contains("pitch of 16 mm"));
 }
 
 TEST_CASE("a search that ended on its budget with a mix of formats is flagged on any camera",

@@ -113,12 +113,15 @@ struct RefineParams {
   /// Prior spread of a box's own turn against the rest of its layer, and of a separate
   /// component's against the layer's orientation [deg]; 0 turns all boxes of a layer together.
   double yaw_sigma_deg = 0.5;
-  /// A box whose fitted position is uncertain by more than this (one sigma, the joint fit's; a box
-  /// none of whose sides is measured along an axis counts with the fit's 50 mm prior) flags the
-  /// layout: the sides that hold it are not seen well enough to promise it within a gripper's
-  /// tolerance (a coarse pitch, cartons pressed together without seams) [mm]. 0 = never (the
-  /// default: at 15 mm per pixel exact layouts carry sigmas of 17 mm).
-  double max_position_sigma_mm = 0.0;
+  /// A box whose fitted position is uncertain by more than this and by more than
+  /// max_position_sigma_px pixel pitches (one sigma, the joint fit's; a box none of whose sides is
+  /// measured along an axis counts with the fit's 50 mm prior) flags the layout: the sides that
+  /// hold it are not seen well enough to promise it within a gripper's tolerance (cartons pressed
+  /// together without a seam, an edge seen at a grazing angle) [mm]. 0 = never.
+  double max_position_sigma_mm = 10.0;
+  /// ... in pixel pitches on the layer: a side measured on a coarse camera is placed to a fraction
+  /// of a pixel, and at 15 mm per pixel exact layouts carry sigmas of 17 mm.
+  double max_position_sigma_px = 2.0;
 };
 
 /// What the outline leaves open (src/detection/layout/completion/, the uncovered flag).
