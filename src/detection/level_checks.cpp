@@ -29,6 +29,10 @@ constexpr double kRectangleFill = 0.95;
 /// top (a glint, dark print, tape), not a place where a carton stands lower or is missing: the
 /// smallest chimney of a pinwheel is the difference of a carton's sides, 80 mm and more [m].
 constexpr double kDropoutHole_m = 0.04;
+/// A box whose own two opposite sides measure it shorter than its format by more than this many
+/// pixel pitches (and more than the refinement's size tolerance) is not that format: cartons are
+/// built at or over their format, and a side is placed to about a pixel.
+constexpr double kUndersize_px = 2.0;
 /// A sheet covers a whole layer: a tiling of at least this many boxes (a stepped remainder of one
 /// to three cartons is no sheet).
 constexpr std::size_t kMinSheetBoxes = 4;
@@ -228,6 +232,31 @@ std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, cons
                                                 ": the sides that hold them are not seen well enough"};
 }
 
+std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,
+                                             const std::vector<BoxFormat>& formats,
+                                             const RefineParams& refine) {
+  const double limit_m = std::max(refine.size_tolerance_m, kUndersize_px * layout.pixel_pitch_m);
+  std::size_t undersized = 0;
+  double shortest_m = 0.0;
+  for (const LayoutBox& b : layout.boxes) {
+    if (b.format < 0 || static_cast<std::size_t>(b.format) >= formats.size()) continue;
+    const BoxFormat& f = formats[static_cast<std::size_t>(b.format)];
+    const double short_of_long_m =
+        b.evidence.measured_long_m < 0.0 ? 0.0 : f.long_m - b.evidence.measured_long_m;
+    const double short_of_short_m =
+        b.evidence.measured_short_m < 0.0 ? 0.0 : f.short_m - b.evidence.measured_short_m;
+    const double shortfall_m = std::max(short_of_long_m, short_of_short_m);
+    if (!(shortfall_m > limit_m)) continue;
+    ++undersized;
+    shortest_m = std::max(shortest_m, shortfall_m);
+  }
+  if (undersized == 0) return std::nullopt;
+  return LevelVerdict{DetectionStatus::kOk,
+                      std::to_string(undersized) + " box(es) measure up to " + mm(shortest_m) +
+                          " shorter than their format between their own sides (more than " + mm(limit_m) +
+                          "): a carton of another format, or two where one is laid"};
+}
+
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout) {
   if (!layout.budget_exhausted) return std::nullopt;
   const std::string unfinished =
@@ -362,6 +391,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
   if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;
+  if (std::optional<LevelVerdict> small = undersized_boxes(layout, formats, refine)) return small;
   if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, refine)) return unsure;
   return search_unfinished(layout);
 }

@@ -52,6 +52,13 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
 /// told apart by the outline alone, and another mix of them may fill it as well: flagged (kOk).
 std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout);
 
+/// Boxes whose own two opposite sides (LayoutBox evidence measured_long_m / measured_short_m)
+/// measure them shorter than their format by more than refine.size_tolerance_m and two pixel
+/// pitches: flagged (kOk); another format, or two cartons taken for one.
+std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,
+                                             const std::vector<BoxFormat>& formats,
+                                             const RefineParams& refine);
+
 /// Boxes whose fitted position is uncertain (one sigma; LayoutBox evidence position_sigma_m) by
 /// more than refine.max_position_sigma_mm and more than refine.max_position_sigma_px pixel
 /// pitches: flagged (kOk); max_position_sigma_mm 0 = never.
@@ -68,7 +75,7 @@ std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout);
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);
 
 /// After the layout: deck_above_floor when the layout failed, is flagged or covers a slot; the
-/// slot's flag; else slip_sheet, formats_undecided, mix_by_outline, uncertain_positions
+/// slot's flag; else slip_sheet, formats_undecided, mix_by_outline, undersized_boxes, uncertain_positions
 /// (`refine`), search_unfinished.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,

@@ -1,6 +1,7 @@
 // The flags level_checks.hpp raises on a camera that does not show narrow seams (a coarse pixel
 // pitch, or no mixed pixels at edges: stereo, structured light): a layout that mixes formats, a
-// search that ended on its budget. Where the camera shows seams, the seams decide and neither flags.
+// search that ended on its budget. Where the camera shows seams, the seams decide and neither flags;
+// on every camera: boxes placed less surely than the limit, boxes measured shorter than their format.
 #include <catch2/catch.hpp>
 
 #include "palletd/detection/layout.hpp"
@@ -113,4 +114,24 @@ TEST_CASE("a search that ended on its budget with a mix of formats is flagged on
   const std::optional<LevelVerdict> v = search_unfinished(tof);
   REQUIRE(v);
   CHECK_THAT(v->message, Catch::Contains("mixes 2 of them"));
+}
+
+TEST_CASE("a box its own sides measure shorter than its format flags the layout, a larger one does not",
+          "[cell][flags]") {
+  const std::vector<BoxFormat> formats = {{0.4, 0.3, "400x300"}, {0.3, 0.2, "300x200"}};
+  LayoutResult layout = layout_seen(0.004, 0.8, {0, 0, 1});
+  layout.boxes[0].evidence.measured_long_m = 0.412;  // built 3 % over: a real carton
+  layout.boxes[0].evidence.measured_short_m = 0.309;
+  layout.boxes[1].evidence.measured_long_m = 0.393;  // 7 mm short: within the size tolerance
+  layout.boxes[2].evidence.measured_short_m = -1.0;  // not measured
+  CHECK_FALSE(undersized_boxes(layout, formats, RefineParams{}));
+  layout.boxes[1].evidence.measured_long_m = 0.381;  // 19 mm short: not a 400 x 300
+  const std::optional<LevelVerdict> v = undersized_boxes(layout, formats, RefineParams{});
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::StartsWith("1 box(es)") && Catch::Contains("19 mm shorter") &&
+                             Catch::Contains("more than 10 mm"));
+  // At 15 mm per pixel a side is placed to about a pixel: 19 mm is within two pitches.
+  layout.pixel_pitch_m = 0.015;
+  CHECK_FALSE(undersized_boxes(layout, formats, RefineParams{}));
 }
