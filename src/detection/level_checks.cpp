@@ -237,7 +237,7 @@ std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,
                                              const RefineParams& refine) {
   const double limit_m = std::max(refine.size_tolerance_m, kUndersize_px * layout.pixel_pitch_m);
   std::size_t undersized = 0;
-  double shortest_m = 0.0;
+  double largest_shortfall_m = 0.0;
   for (const LayoutBox& b : layout.boxes) {
     if (b.format < 0 || static_cast<std::size_t>(b.format) >= formats.size()) continue;
     const BoxFormat& f = formats[static_cast<std::size_t>(b.format)];
@@ -248,11 +248,11 @@ std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,
     const double shortfall_m = std::max(short_of_long_m, short_of_short_m);
     if (!(shortfall_m > limit_m)) continue;
     ++undersized;
-    shortest_m = std::max(shortest_m, shortfall_m);
+    largest_shortfall_m = std::max(largest_shortfall_m, shortfall_m);
   }
   if (undersized == 0) return std::nullopt;
   return LevelVerdict{DetectionStatus::kOk,
-                      std::to_string(undersized) + " box(es) measure up to " + mm(shortest_m) +
+                      std::to_string(undersized) + " box(es) measure up to " + mm(largest_shortfall_m) +
                           " shorter than their format between their own sides (more than " + mm(limit_m) +
                           "): a carton of another format, or two where one is laid"};
 }
