@@ -217,19 +217,25 @@ std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, cons
   if (!(refine.max_position_sigma_mm > 0.0)) return std::nullopt;
   const double max_sigma_mm =
       std::max(refine.max_position_sigma_mm, refine.max_position_sigma_px * 1e3 * layout.pixel_pitch_m);
-  std::size_t uncertain = 0;
+  std::size_t uncertain = 0, rejected = 0;
   double widest_m = 0.0;
   for (const LayoutBox& b : layout.boxes) {
+    rejected += b.evidence.fit_rejected ? 1 : 0;
     if (!(1e3 * b.evidence.position_sigma_m > max_sigma_mm)) continue;
     ++uncertain;
     widest_m = std::max(widest_m, b.evidence.position_sigma_m);
   }
-  if (uncertain == 0) return std::nullopt;
-  return LevelVerdict{DetectionStatus::kOk, std::to_string(uncertain) + " box(es) placed less surely than " +
-                                                mm(1e-3 * max_sigma_mm) + " (one sigma, up to " +
-                                                mm(widest_m) + ") at a pixel pitch of " +
-                                                mm(layout.pixel_pitch_m) +
-                                                ": the sides that hold them are not seen well enough"};
+  std::string why;
+  if (uncertain > 0)
+    why = std::to_string(uncertain) + " box(es) placed less surely than " + mm(1e-3 * max_sigma_mm) +
+          " (one sigma, up to " + mm(widest_m) + ") at a pixel pitch of " + mm(layout.pixel_pitch_m) +
+          ": the sides that hold them are not seen well enough";
+  if (rejected > 0)
+    why += (why.empty() ? "" : "; ") + std::to_string(rejected) +
+           " box(es) the sides seen around them would move by more than a quarter of their short side: "
+           "they keep the search's place, unconfirmed";
+  if (why.empty()) return std::nullopt;
+  return LevelVerdict{DetectionStatus::kOk, why};
 }
 
 std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,

@@ -104,6 +104,32 @@ TEST_CASE("the position limit grows with the pixel pitch: a coarse camera places
   const std::optional<LevelVerdict> v = uncertain_positions(coarse, position_limits(10.0, 2.0));
   REQUIRE(v);
   CHECK_THAT(v->message, Catch::Contains("less surely than 32 mm") && Catch::Contains("pitch of 16 mm"));
+  // By default one pitch: a box the fit places worse than a pixel is not placed by what it sees.
+  coarse.boxes[1].evidence.position_sigma_m = 0.019;
+  const std::optional<LevelVerdict> by_default = uncertain_positions(coarse, RefineParams{});
+  REQUIRE(by_default);
+  CHECK_THAT(by_default->message, Catch::Contains("less surely than 16 mm"));
+  coarse.boxes[1].evidence.position_sigma_m = 0.015;
+  CHECK_FALSE(uncertain_positions(coarse, RefineParams{}));
+}
+
+TEST_CASE("a box whose fit was rejected flags the layout: its place is the search's, unconfirmed",
+          "[cell][flags]") {
+  LayoutResult layout = layout_seen(0.004, 0.8, {0, 0, 0});
+  for (LayoutBox& b : layout.boxes) b.evidence.position_sigma_m = 0.002;
+  CHECK_FALSE(uncertain_positions(layout, RefineParams{}));
+  layout.boxes[2].evidence.position_sigma_m = -1.0;
+  layout.boxes[2].evidence.fit_rejected = true;
+  const std::optional<LevelVerdict> v = uncertain_positions(layout, RefineParams{});
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::StartsWith("1 box(es) the sides seen around them would move"));
+  CHECK_FALSE(uncertain_positions(layout, position_limits(0.0, 1.0)));  // 0: never
+  layout.boxes[0].evidence.position_sigma_m = 0.019;                    // both reasons, one verdict
+  const std::optional<LevelVerdict> both = uncertain_positions(layout, RefineParams{});
+  REQUIRE(both);
+  CHECK_THAT(both->message,
+             Catch::StartsWith("1 box(es) placed less surely") && Catch::Contains("; 1 box(es) the sides"));
 }
 
 TEST_CASE("a search that ended on its budget with a mix of formats is flagged on any camera",

@@ -155,10 +155,25 @@ TEST_CASE("detect() on the bundled mixed-format frame: exact, or flagged ambiguo
   CHECK((run.eval.exact || run.eval.ambiguous));
 }
 
+/// Exact, and flagged at most for boxes the camera cannot place: at 15-17 mm per pixel a brick's
+/// pressed rows show no seam, and a box the fit places no better than one pixel pitch is held by
+/// its prior and neighbours (uncertain_positions), whatever its place turned out to be.
+static void check_exact_but_coarse(const std::string& name) {
+  INFO(name);
+  const BundledRun run = run_bundled(name);
+  INFO(run.detection.ambiguity_reason);
+  CHECK(run.eval.status == "ok");
+  CHECK(run.eval.exact);
+  if (run.eval.ambiguous) {
+    // That reason and nothing else (reasons are joined by "; ").
+    CHECK_THAT(run.detection.ambiguity_reason, Catch::Matches("[0-9]+ box\\(es\\) placed less surely[^;]*"));
+  }
+}
+
 // Brick 05 (176x132): exact since the deterministic search budget and the corner recovery at
 // coarse pitch.
 TEST_CASE("detect() gets the bundled brick frame exactly") {
-  check_bundled_frames({"05_brick_300x200_o3d303-small"});
+  check_exact_but_coarse("05_brick_300x200_o3d303-small");
 }
 
 // Generated frames, most at 176 x 132 (about 17 mm per pixel on the layer), kept in
@@ -167,7 +182,7 @@ TEST_CASE("detect() gets the bundled brick frame exactly") {
 // The brick's staggered ends come out washed into slopes: its end boxes keep less than 0.9 of
 // their area inside the outline (LayoutParams::outline_tolerance_pitches; 0 loses two boxes).
 TEST_CASE("detect() keeps the end boxes of a brick layer whose steps are washed out at a coarse pitch") {
-  check_bundled_frames({"coarse/brick_300x200_steps_o3d303-small"});
+  check_exact_but_coarse("coarse/brick_300x200_steps_o3d303-small");
 }
 
 // The chimney's two chiralities differ in outline score by 2.6 % of a box, more than the 2 %
@@ -188,6 +203,21 @@ TEST_CASE("detect() keeps a box whose seam side has stray or scattered samples i
   const BundledRun run = run_bundled("coarse/pinwheel_315x232_scattered_seam_o3d303");
   REQUIRE(run.eval.status == "ok");
   CHECK(run.eval.exact);  // outline-tied: the seams decide, and may flag; this one they resolve
+}
+
+// palletctl simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
+// --gap-max 20 --seed 90871, frame 290 (blaze101, 4.5 mm per pixel): a brick's end box the search
+// put 50 mm off; the one side the fit sees, chained to its neighbours, would move it 50 mm, more
+// than a quarter of its short side, so the fit is not taken and the box keeps the search's place.
+// An unconfirmed place flags the layout (uncertain_positions).
+TEST_CASE("detect() flags a layout with a box whose fit was rejected") {
+  const BundledRun run = run_bundled("flags/brick_300x200_rejected_fit_blaze101");
+  REQUIRE(run.eval.status == "ok");
+  CHECK(run.eval.ambiguous);
+  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("would move by more than a quarter"));
+  std::size_t rejected = 0;
+  for (const DetectedBox& b : run.detection.boxes) rejected += b.score_terms.position_sigma_mm < 0.0 ? 1 : 0;
+  CHECK(rejected == 1);
 }
 
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {

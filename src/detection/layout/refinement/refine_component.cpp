@@ -365,11 +365,14 @@ ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWit
   for (std::size_t k = 0; k < n; ++k) {
     Box2d& box = boxes[idx[k]];
     const Eigen::Vector2d shift = fitted[k].center - ev[k].jb.center;
-    if (!fitted[k].center.allFinite() || shift.norm() > kMaxShiftShare * box.short_m)
-      continue;  // wrong association
+    if (!fitted[k].center.allFinite() || shift.norm() > kMaxShiftShare * box.short_m) {
+      boxes[idx[k]].evidence.fit_rejected = true;  // wrong association
+      continue;
+    }
     const Eigen::Vector2d measured = measured_extent(sides, k);
     const Eigen::Vector2d run = run_extent(sides, contacts, fitted, k);
     auto& e = boxes[idx[k]].evidence;
+    e.fit_rejected = false;
     e.measured_long_m = ev[k].along_x ? measured.x() : measured.y();
     e.measured_short_m = ev[k].along_x ? measured.y() : measured.x();
     e.run_long_m = ev[k].along_x ? run.x() : run.y();

@@ -119,9 +119,11 @@ struct RefineParams {
   /// hold it are not seen well enough to promise it within a gripper's tolerance (cartons pressed
   /// together without a seam, an edge seen at a grazing angle) [mm]. 0 = never.
   double max_position_sigma_mm = 10.0;
-  /// ... in pixel pitches on the layer: a side measured on a coarse camera is placed to a fraction
-  /// of a pixel, and at 15 mm per pixel exact layouts carry sigmas of 17 mm.
-  double max_position_sigma_px = 2.0;
+  /// ... and than this many pixel pitches on the layer: a side the camera sees is placed to within
+  /// a pixel, so a box the fit places no better than one pitch is held by its prior and its
+  /// neighbours, not by what the frame shows (at 15 mm per pixel, oversize cartons pressed in an
+  /// interlock come out 30-50 mm off with sigmas of 18-20 mm; exact ones stay under 10 mm).
+  double max_position_sigma_px = 1.0;
 };
 
 /// What the outline leaves open (src/detection/layout/completion/, the uncovered flag).
@@ -235,6 +237,10 @@ struct BoxEvidence {
   bool shared_sides = false;    ///< it has a neighbour (else edge_seams is 1)
   double position_sigma_m = -1.0;  ///< standard deviation of the fitted centre, worse axis; -1 = not fitted
   double refine_shift_m = 0.0;     ///< how far the fit moved it from where the search put it [m]
+  /// The joint fit placed it more than a quarter of its short side from where the search put it:
+  /// the sides measured around it contradict the layout there, so it keeps the search's place,
+  /// unconfirmed (position_sigma_m stays -1).
+  bool fit_rejected = false;
   bool contested = false;  ///< the runner-up layout of its component has no box of its size here
   /// Where the recipe makes the box two boxes of another format, or it and a neighbour one box
   /// of another format: the strongest seam line across that box or pair, 0..1; -1 = neither.
