@@ -6,18 +6,15 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "level_geometry.hpp"
+
 namespace palletd {
 namespace {
 
-/// Without box heights, a top level this close to the pallet's top is the pallet itself [m].
-constexpr double kDeckBand_m = 0.05;
-/// With box heights: within this share of the lowest box height of the pallet's top.
-constexpr double kDeckBandBoxes = 0.4;
-/// Deck boards: at least this many parallel strips, each narrower than this share of the
-/// smallest box's short side, parallel within kBoardAngle_deg.
-constexpr std::size_t kMinBoards = 3;
-constexpr double kBoardWidthShare = 0.6;
-constexpr double kBoardAngle_deg = 5.0;
+using level_detail::min_area_rect;
+using level_detail::min_short_m;
+using level_detail::mm;
+
 /// A layout is "seamless" when its interior sides show a seam along less than this share.
 constexpr double kSeamlessShare = 0.1;
 /// The groove between two cartons (their rounded top edges, 3 mm radius and more, plus the gap)
@@ -41,125 +38,6 @@ constexpr double kSplitSeam = 0.5;
 /// The rim shows mixed pixels along at least this share of the outline: the camera mixes depths
 /// across an edge, so a seam narrower than a pixel still shows as a dip.
 constexpr double kMixingRimShare = 0.3;
-/// No carton layer on a pallet stands this little above the floor (a pallet is 0.14-0.16 m high,
-/// a carton 0.1 m or more): the deck of an empty pallet [m].
-constexpr double kMaxDeckAboveFloor_m = 0.2;
-/// The floor: the lowest level below the layer holding at least this share of the sampled points.
-constexpr double kMinFloorShare = 0.1;
-/// A slot in the layer (a hole at least this many times longer than wide: the gap between two
-/// deck boards) under this share of a box's top: no carton top has one.
-constexpr double kSlotAspect = 4.0;
-constexpr double kMaxSlotShare = 0.03;
-/// The slot is looked for this far (or two pixel pitches) inside the box's sides [m].
-constexpr double kSlotMargin_m = 0.025;
-
-std::string mm(double m) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(0);
-  s << m * 1000.0 << " mm";
-  return s.str();
-}
-
-/// Area centroid of the layer's polygons (layer frame) [m].
-Eigen::Vector2d layer_centroid(const LayerResult& layer) {
-  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  double total = 0.0;
-  for (const PolygonWithHoles& p : layer.polygons) {
-    const double a = area(p);
-    Eigen::Vector2d c = Eigen::Vector2d::Zero();
-    for (const Eigen::Vector2d& v : p.outer) c += v;
-    if (!p.outer.empty()) c /= static_cast<double>(p.outer.size());
-    sum += a * c;
-    total += a;
-  }
-  return total > 0.0 ? Eigen::Vector2d(sum / total) : Eigen::Vector2d::Zero();
-}
-
-cv::RotatedRect min_area_rect(const Ring2d& ring) {
-  std::vector<cv::Point2f> pts;
-  pts.reserve(ring.size());
-  for (const Eigen::Vector2d& v : ring)
-    pts.emplace_back(static_cast<float>(v.x() * 1000.0), static_cast<float>(v.y() * 1000.0));
-  return cv::minAreaRect(pts);  // [mm]
-}
-
-double min_short_m(const std::vector<BoxFormat>& formats) {
-  double s = 1e9;
-  for (const BoxFormat& f : formats) s = std::min(s, f.short_m);
-  return s;
-}
-
-/// The lowest known box height, 0 when no format has one [m].
-double min_height_m(const std::vector<BoxFormat>& formats) {
-  double h = 0.0;
-  for (const BoxFormat& f : formats)
-    if (f.height_m > 0.0) h = h > 0.0 ? std::min(h, f.height_m) : f.height_m;
-  return h;
-}
-
-/// The level's pieces are kMinBoards or more parallel strips narrower than any box's top.
-bool deck_boards(const LayerResult& layer, const std::vector<BoxFormat>& formats) {
-  if (layer.polygons.size() < kMinBoards || layer.diagnostics.touches_image_border) return false;
-  const double max_width_mm = kBoardWidthShare * min_short_m(formats) * 1000.0;
-  std::vector<double> angles_deg;
-  for (const PolygonWithHoles& p : layer.polygons) {
-    if (p.outer.size() < 3) return false;
-    const cv::RotatedRect r = min_area_rect(p.outer);
-    const double width = std::min(r.size.width, r.size.height);
-    if (width > max_width_mm) return false;
-    // Direction of the strip's long side, modulo 180 degrees.
-    double angle = r.angle + (r.size.width < r.size.height ? 90.0 : 0.0);
-    angles_deg.push_back(std::fmod(angle + 360.0, 180.0));
-  }
-  for (const double a : angles_deg) {
-    const double d = std::abs(a - angles_deg.front());
-    if (std::min(d, 180.0 - d) > kBoardAngle_deg) return false;
-  }
-  return true;
-}
-
-}  // namespace
-
-std::optional<double> layer_base_z_m(const LayerResult& layer,
-                                     const std::optional<Eigen::Isometry3d>& T_base_camera) {
-  if (!T_base_camera || layer.polygons.empty()) return std::nullopt;
-  const Eigen::Vector2d c = layer_centroid(layer);
-  const Eigen::Vector3d p_camera = layer.T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0);
-  return (*T_base_camera * p_camera).z();
-}
-
-std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& layer,
-                                        const std::vector<BoxFormat>& formats,
-                                        const DetectionParams& params) {
-  const std::optional<double> z_m = layer_base_z_m(layer, frame.T_base_camera);
-  if (params.roi) {
-    const RegionOfInterest& roi = *params.roi;
-    const Eigen::Vector3d centre_camera =
-        layer.T_camera_layer * Eigen::Vector3d(layer_centroid(layer).x(), layer_centroid(layer).y(), 0.0);
-    const bool below = roi.frame == RegionOfInterest::Frame::kBase ? (z_m && *z_m < roi.min_m.z())
-                                                                   : centre_camera.z() > roi.max_m.z();
-    if (below)
-      return LevelVerdict{DetectionStatus::kEmpty,
-                          "nothing stands inside the region of interest: the top level lies below it"};
-  }
-  if (params.pallet.top_z_m && z_m) {
-    const double h_box = min_height_m(formats);
-    const double band = h_box > 0.0 ? kDeckBandBoxes * h_box : kDeckBand_m;
-    const double above = *z_m - *params.pallet.top_z_m;
-    if (above < band)
-      return LevelVerdict{DetectionStatus::kEmpty,
-                          "the top level is the pallet's deck (" + mm(above) + " above pallet.top_z_m)"};
-    return std::nullopt;  // the pallet's height decides
-  }
-  if (deck_boards(layer, formats))
-    return LevelVerdict{DetectionStatus::kEmpty,
-                        "the top level is " + std::to_string(layer.polygons.size()) +
-                            " parallel strips narrower than any box (a pallet's deck boards)"};
-  return std::nullopt;
-}
-
-namespace {
 
 /// The camera shows a seam narrower than a pixel: a fine pitch and mixed pixels across edges.
 bool resolves_seams(const LayoutResult& layout) {
@@ -315,72 +193,6 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
                                                 ": a slip sheet and tightly packed cartons look the same"};
 }
 
-std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const LayerResult& layer,
-                                             const PlaneParams& validity) {
-  // Heights below the layer's plane of about 10^4 sampled points, in 1 cm bins.
-  constexpr double kBin_m = 0.01;
-  constexpr int kBins = 400;  // down to 4 m
-  std::vector<int> bins(kBins, 0);
-  const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(cloud.points.size()) / 1e4)));
-  std::size_t sampled = 0;
-  for (int v = 0; v < cloud.height; v += step) {
-    for (int u = 0; u < cloud.width; u += step) {
-      const Eigen::Vector3f& p = cloud.at(u, v);
-      if (!p.allFinite() || p.z() < validity.min_depth_m || p.z() > validity.max_depth_m) continue;
-      ++sampled;
-      const double below_m = -layer.plane_camera.signed_distance(p.cast<double>());
-      const int b = static_cast<int>(below_m / kBin_m);
-      if (below_m > 0.0 && b < kBins) ++bins[static_cast<std::size_t>(b)];
-    }
-  }
-  const auto floor_count = static_cast<int>(kMinFloorShare * static_cast<double>(sampled));
-  for (int b = kBins - 2; b >= 0; --b) {
-    if (bins[static_cast<std::size_t>(b)] + bins[static_cast<std::size_t>(b) + 1] < std::max(floor_count, 50))
-      continue;
-    const double floor_below_m = (b + 1) * kBin_m;  // the floor: the lowest level with enough points
-    if (floor_below_m >= kMaxDeckAboveFloor_m) return std::nullopt;
-    return LevelVerdict{DetectionStatus::kEmpty,
-                        "the top level stands " + mm(floor_below_m) +
-                            " above the floor and no box of the recipe fits it: an empty pallet's deck"};
-  }
-  return std::nullopt;
-}
-
-std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer) {
-  for (const PolygonWithHoles& polygon : layer.polygons) {
-    for (const Ring2d& hole : polygon.holes) {
-      if (hole.size() < 3) continue;
-      const cv::RotatedRect r = min_area_rect(hole);
-      const double w = std::min(r.size.width, r.size.height), l = std::max(r.size.width, r.size.height);
-      if (!(w > 0.0) || l < kSlotAspect * w) continue;
-      for (std::size_t i = 0; i < layout.boxes.size(); ++i) {
-        const LayoutBox& b = layout.boxes[i];
-        if (b.partly_unseen) continue;
-        // The hole in the box's own frame, clipped by the box's top.
-        const double c = std::cos(b.yaw_rad), s = std::sin(b.yaw_rad);
-        PolygonWithHoles local;
-        for (const Eigen::Vector2d& v : hole) {
-          const Eigen::Vector2d d = v - b.center;
-          local.outer.emplace_back(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
-        }
-        if (signed_area(local.outer) < 0.0) std::reverse(local.outer.begin(), local.outer.end());
-        // Only the box's inner part: a hole beside the box (a chimney, a pinwheel's centre) that
-        // its side reaches into by a pixel or two is no slot through its top.
-        const double margin_m = std::max(kSlotMargin_m, 2.0 * layout.pixel_pitch_m);
-        const double hx = 0.5 * b.long_m - margin_m, hy = 0.5 * b.short_m - margin_m;
-        if (hx <= 0.0 || hy <= 0.0) continue;
-        const double over = clipped_area(local, -hx, -hy, hx, hy);
-        if (over > kMaxSlotShare * b.long_m * b.short_m)
-          return LevelVerdict{DetectionStatus::kOk, "box " + std::to_string(i) +
-                                                        " lies over a slot in the layer (" + mm(l * 1e-3) +
-                                                        " by " + mm(w * 1e-3) +
-                                                        "): no carton top has one (a pallet's deck boards?)"};
-      }
-    }
-  }
-  return std::nullopt;
-}
-
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
@@ -400,38 +212,6 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (std::optional<LevelVerdict> small = undersized_boxes(layout, formats, refine)) return small;
   if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, refine)) return unsure;
   return search_unfinished(layout);
-}
-
-void layer_height(const std::optional<double>& layer_z_m, const std::vector<BoxFormat>& formats,
-                  const PalletParams& pallet, Detection& out) {
-  if (!layer_z_m || !pallet.top_z_m) return;
-  const double h = *layer_z_m - *pallet.top_z_m;
-  out.height_above_pallet_m = h;
-  if (out.status == DetectionStatus::kEmpty) {
-    out.layers_remaining = 0;
-    return;
-  }
-  if (out.boxes.empty()) return;
-  double sum = 0.0;
-  for (const DetectedBox& b : out.boxes) {
-    const std::size_t f = static_cast<std::size_t>(std::max(0, b.format));
-    if (f >= formats.size() || !(formats[f].height_m > 0.0)) return;  // a height unknown
-    sum += formats[f].height_m;
-  }
-  const double box_m = sum / static_cast<double>(out.boxes.size());
-  const double layers = h / box_m;
-  const double whole = std::max(1.0, std::round(layers));
-  out.layers_remaining = static_cast<int>(whole);
-  if (std::abs(layers - whole) > pallet.height_tolerance) {
-    std::ostringstream s;
-    s.precision(3);
-    s << "the layer stands " << mm(h) << " above the pallet, " << layers << " box heights of " << mm(box_m)
-      << ": not a whole number of layers (a missing or extra layer, other boxes than the recipe's)";
-    out.ambiguous = true;
-    out.height_off_layers = true;
-    out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + s.str();
-    out.ambiguity_kinds.push_back(AmbiguityKind::kHeightOffLayers);
-  }
 }
 
 }  // namespace palletd

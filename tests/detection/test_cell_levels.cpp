@@ -374,3 +374,43 @@ TEST_CASE("a format a layer would hold thousands of is refused before the layout
   CHECK(d.boxes.empty());
   CHECK(d.timing_ms.count("layout") == 0);  // the search never started
 }
+
+namespace {
+
+PolygonWithHoles strip(double x0_m, double width_m, double length_m) {
+  PolygonWithHoles p;
+  p.outer = {{x0_m, 0.0}, {x0_m + width_m, 0.0}, {x0_m + width_m, length_m}, {x0_m, length_m}};
+  return p;
+}
+
+}  // namespace
+
+// A EUR pallet's deck seen from above: boards 145 and 100 mm wide, 40 mm apart, 1200 mm long.
+// A camera that smooths edges (stereo) may merge two boards and their gap into one strip 285 mm
+// wide, which three 400 x 300 cartons would fill end to end.
+TEST_CASE("deck boards are an empty pallet, also with two boards merged into one strip", "[cell][empty]") {
+  const std::vector<BoxFormat> formats{{0.6, 0.4, "600x400"}, {0.4, 0.3, "400x300"}};
+  const Frame frame;
+  LayerResult deck;
+  deck.polygons = {strip(0.0, 0.145, 1.2), strip(0.185, 0.1, 1.2), strip(0.325, 0.145, 1.2),
+                   strip(0.51, 0.1, 1.2), strip(0.65, 0.145, 1.2)};
+  const std::optional<LevelVerdict> boards = empty_level(frame, deck, formats, DetectionParams{});
+  REQUIRE(boards);
+  CHECK(boards->status == DetectionStatus::kEmpty);
+  CHECK_THAT(boards->message, Catch::Contains("5 parallel strips"));
+
+  LayerResult merged = deck;
+  merged.polygons.erase(merged.polygons.begin(), merged.polygons.begin() + 2);
+  merged.polygons.push_back(strip(-0.3, 0.285, 1.19));
+  CHECK(empty_level(frame, merged, formats, DetectionParams{}));
+
+  LayerResult row = merged;  // a strip as wide but shorter than the boards: a row of cartons
+  row.polygons.back() = strip(-0.3, 0.285, 0.8);
+  CHECK_FALSE(empty_level(frame, row, formats, DetectionParams{}));
+  LayerResult wide = merged;  // wider than two boards: a carton's top
+  wide.polygons.back() = strip(-0.5, 0.41, 1.2);
+  CHECK_FALSE(empty_level(frame, wide, formats, DetectionParams{}));
+  LayerResult two_boards = merged;  // two narrow strips beside a merged one: not enough boards
+  two_boards.polygons.erase(two_boards.polygons.begin());
+  CHECK_FALSE(empty_level(frame, two_boards, formats, DetectionParams{}));
+}
