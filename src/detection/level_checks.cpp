@@ -141,6 +141,35 @@ std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,
                           "): a carton of another format, or two where one is laid"};
 }
 
+std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const RefineParams& refine) {
+  const auto corners_mm = [](const LayoutBox& b) {
+    std::vector<cv::Point2f> q;
+    for (const Eigen::Vector2d& v : b.corners())
+      q.emplace_back(static_cast<float>(1e3 * v.x()), static_cast<float>(1e3 * v.y()));
+    return q;
+  };
+  double deepest_mm = 0.0;
+  std::size_t first = 0, second = 0;
+  for (std::size_t i = 0; i < layout.boxes.size(); ++i) {
+    for (std::size_t j = i + 1; j < layout.boxes.size(); ++j) {
+      std::vector<cv::Point2f> shared;
+      if (cv::intersectConvexConvex(corners_mm(layout.boxes[i]), corners_mm(layout.boxes[j]), shared) <=
+              0.0F ||
+          shared.size() < 3)
+        continue;
+      const cv::RotatedRect r = cv::minAreaRect(shared);
+      const double depth_mm = std::min(r.size.width, r.size.height);  // how far one reaches into the other
+      if (depth_mm > deepest_mm) deepest_mm = depth_mm, first = i, second = j;
+    }
+  }
+  if (!(deepest_mm > 1e3 * refine.size_tolerance_m)) return std::nullopt;
+  return LevelVerdict{DetectionStatus::kOk, "boxes " + std::to_string(first) + " and " +
+                                                std::to_string(second) + " overlap by " +
+                                                mm(1e-3 * deepest_mm) +
+                                                ": the layout holds more cartons than the layer has room for "
+                                                "(cartons built over their format, fewer of them)"};
+}
+
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout) {
   if (!layout.budget_exhausted) return std::nullopt;
   const std::string unfinished =
@@ -211,6 +240,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;
   if (std::optional<LevelVerdict> small = undersized_boxes(layout, formats, refine)) return small;
   if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, refine)) return unsure;
+  if (std::optional<LevelVerdict> crowded = overlapping_boxes(layout, refine)) return crowded;
   return search_unfinished(layout);
 }
 

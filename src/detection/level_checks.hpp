@@ -59,6 +59,11 @@ std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,
                                              const std::vector<BoxFormat>& formats,
                                              const RefineParams& refine);
 
+/// Two boxes of the fitted layout that reach into each other deeper than refine.size_tolerance_m
+/// (cartons do not pass through each other): the layout holds more cartons than stand there, as
+/// when cartons built 5 % over their format fill the room of one more nominal carton: flagged (kOk).
+std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const RefineParams& refine);
+
 /// Boxes whose fitted position is uncertain (one sigma; LayoutBox evidence position_sigma_m) by
 /// more than refine.max_position_sigma_mm and more than refine.max_position_sigma_px pixel
 /// pitches, or whose fit was rejected (evidence fit_rejected: the sides seen around it would move
@@ -76,8 +81,8 @@ std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout);
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);
 
 /// After the layout: deck_above_floor when the layout failed, is flagged or covers a slot; the
-/// slot's flag; else slip_sheet, formats_undecided, mix_by_outline, undersized_boxes, uncertain_positions
-/// (`refine`), search_unfinished.
+/// slot's flag; else slip_sheet, formats_undecided, mix_by_outline, undersized_boxes, uncertain_positions,
+/// overlapping_boxes (`refine`), search_unfinished.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,

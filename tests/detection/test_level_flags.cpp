@@ -1,7 +1,8 @@
 // The flags level_checks.hpp raises on a camera that does not show narrow seams (a coarse pixel
 // pitch, or no mixed pixels at edges: stereo, structured light): a layout that mixes formats, a
 // search that ended on its budget. Where the camera shows seams, the seams decide and neither flags;
-// on every camera: boxes placed less surely than the limit, boxes measured shorter than their format.
+// on every camera: boxes placed less surely than the limit, boxes measured shorter than their format,
+// boxes that reach into each other.
 #include <catch2/catch.hpp>
 
 #include "palletd/detection/layout.hpp"
@@ -160,4 +161,23 @@ TEST_CASE("a box its own sides measure shorter than its format flags the layout,
   // At 15 mm per pixel a side is placed to about a pixel: 19 mm is within two pitches.
   layout.pixel_pitch_m = 0.015;
   CHECK_FALSE(undersized_boxes(layout, formats, RefineParams{}));
+}
+
+TEST_CASE("boxes that reach into each other deeper than the size tolerance flag the layout",
+          "[cell][flags]") {
+  // Three 400 x 300 boxes side by side along x, touching: cartons, not a crowd.
+  LayoutResult layout = layout_seen(0.004, 0.8, {0, 0, 0});
+  CHECK_FALSE(overlapping_boxes(layout, RefineParams{}));
+  layout.boxes[1].center.x() -= 0.008;  // 8 mm into box 0: a bulge, within the tolerance
+  CHECK_FALSE(overlapping_boxes(layout, RefineParams{}));
+  layout.boxes[2].center.x() -= 0.023;  // 15 mm into box 1
+  const std::optional<LevelVerdict> v = overlapping_boxes(layout, RefineParams{});
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::StartsWith("boxes 1 and 2 overlap by 15 mm"));
+  RefineParams loose;
+  loose.size_tolerance_m = 0.02;
+  CHECK_FALSE(overlapping_boxes(layout, loose));
+  layout.boxes[2].yaw_rad = 0.3;  // turned: how deep the corners reach, not how far the centres are
+  CHECK(overlapping_boxes(layout, RefineParams{}));
 }

@@ -1,15 +1,17 @@
 // Seam evidence must not veto an outline-determined layout; the whole pipeline (detect()) on one
 // bundled simulator frame per layout family gets the layout exactly.
-#include <catch2/catch.hpp>
-
+#include <optional>
 #include <random>
 #include <string>
 
-#include "layout_fixtures.hpp"
+#include <catch2/catch.hpp>
+
 #include "palletd/detection/detection.hpp"
-#include "palletd/results/evaluation.hpp"
-#include "palletd/frames/frame_io.hpp"
 #include "palletd/detection/layout.hpp"
+#include "palletd/frames/frame_io.hpp"
+#include "palletd/results/evaluation.hpp"
+
+#include "layout_fixtures.hpp"
 
 using namespace palletd;
 using namespace palletd::layout_test;
@@ -93,7 +95,8 @@ struct BundledRun {
 };
 
 // Detects one bundled frame with the formats of its truth file's recipe and scores it.
-static BundledRun run_bundled(const std::string& name) {
+static BundledRun run_bundled(const std::string& name,
+                              const std::optional<RegionOfInterest>& roi = std::nullopt) {
   const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/" + name;
   INFO(stem);
   const Expected<Truth> truth = read_truth(stem);
@@ -109,6 +112,7 @@ static BundledRun run_bundled(const std::string& name) {
   }
   DetectionParams params;
   params.layout.search.time_budget_ms = 60000.0;  // the expansion budget ends the search, as when idle
+  params.roi = roi;
   BundledRun run{detect(*frame, formats, params), {}};
   run.eval = evaluate_frame(run.detection, *truth, names);
   return run;
@@ -218,6 +222,23 @@ TEST_CASE("detect() flags a layout with a box whose fit was rejected") {
   std::size_t rejected = 0;
   for (const DetectedBox& b : run.detection.boxes) rejected += b.score_terms.position_sigma_mm < 0.0 ? 1 : 0;
   CHECK(rejected == 1);
+}
+
+// palletctl simulate --pattern all --profile o3d303-small --scene all --oversize-max 0.05
+// --corner-radius 3:8 --gap-max 20 --seed 90872, frame 21 (a cell, 17.6 mm per pixel, its region
+// of interest in STEM.roi.yaml): ten pinwheel cartons built about 5 % over 315 x 232 fill the
+// room of eleven nominal ones, and a layout of eleven fits the outline; fitted to the sides seen,
+// two of its boxes reach 14 mm into each other (overlapping_boxes).
+TEST_CASE("detect() flags a layout whose fitted boxes reach into each other") {
+  RegionOfInterest roi;
+  roi.frame = RegionOfInterest::Frame::kBase;
+  roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.094);
+  roi.max_m = Eigen::Vector3d(0.7, 0.5, 0.844);
+  const BundledRun run = run_bundled("flags/pinwheel_315x232_oversize_crowded_o3d303-small", roi);
+  REQUIRE(run.eval.status == "ok");
+  CHECK(run.detection.boxes.size() == 11);  // one more than stand there
+  CHECK(run.eval.ambiguous);
+  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("overlap by"));
 }
 
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {
