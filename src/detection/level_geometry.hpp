@@ -2,6 +2,7 @@
 // ring's smallest enclosing rectangle, the recipe's smallest sides.
 #pragma once
 
+#include <algorithm>
 #include <sstream>
 #include <string>
 #include <vector>
