@@ -151,12 +151,13 @@ std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const 
   double deepest_mm = 0.0;
   std::size_t first = 0, second = 0;
   for (std::size_t i = 0; i < layout.boxes.size(); ++i) {
+    const LayoutBox& a = layout.boxes[i];
     for (std::size_t j = i + 1; j < layout.boxes.size(); ++j) {
+      const LayoutBox& b = layout.boxes[j];
+      const double reach_m = 0.5 * (std::hypot(a.long_m, a.short_m) + std::hypot(b.long_m, b.short_m));
+      if ((a.center - b.center).norm() >= reach_m) continue;  // too far apart to touch
       std::vector<cv::Point2f> shared;
-      if (cv::intersectConvexConvex(corners_mm(layout.boxes[i]), corners_mm(layout.boxes[j]), shared) <=
-              0.0F ||
-          shared.size() < 3)
-        continue;
+      if (cv::intersectConvexConvex(corners_mm(a), corners_mm(b), shared) <= 0.0F || shared.size() < 3) continue;
       const cv::RotatedRect r = cv::minAreaRect(shared);
       const double depth_mm = std::min(r.size.width, r.size.height);  // how far one reaches into the other
       if (depth_mm > deepest_mm) deepest_mm = depth_mm, first = i, second = j;
