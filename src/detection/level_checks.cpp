@@ -14,6 +14,7 @@ namespace {
 using level_detail::min_area_rect;
 using level_detail::min_short_m;
 using level_detail::mm;
+using level_detail::points_mm;
 
 /// A layout is "seamless" when its interior sides show a seam along less than this share.
 constexpr double kSeamlessShare = 0.1;
@@ -142,12 +143,9 @@ std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,
 }
 
 std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const RefineParams& refine) {
-  const auto corners_mm = [](const LayoutBox& b) {
-    std::vector<cv::Point2f> q;
-    for (const Eigen::Vector2d& v : b.corners())
-      q.emplace_back(static_cast<float>(1e3 * v.x()), static_cast<float>(1e3 * v.y()));
-    return q;
-  };
+  std::vector<std::vector<cv::Point2f>> corners_mm;
+  corners_mm.reserve(layout.boxes.size());
+  for (const LayoutBox& b : layout.boxes) corners_mm.push_back(points_mm(b.corners()));
   double deepest_mm = 0.0;
   std::size_t first = 0, second = 0;
   for (std::size_t i = 0; i < layout.boxes.size(); ++i) {
@@ -157,7 +155,7 @@ std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const 
       const double reach_m = 0.5 * (std::hypot(a.long_m, a.short_m) + std::hypot(b.long_m, b.short_m));
       if ((a.center - b.center).norm() >= reach_m) continue;  // too far apart to touch
       std::vector<cv::Point2f> shared;
-      if (cv::intersectConvexConvex(corners_mm(a), corners_mm(b), shared) <= 0.0F || shared.size() < 3) continue;
+      if (cv::intersectConvexConvex(corners_mm[i], corners_mm[j], shared) <= 0.0F || shared.size() < 3) continue;
       const cv::RotatedRect r = cv::minAreaRect(shared);
       const double depth_mm = std::min(r.size.width, r.size.height);  // how far one reaches into the other
       if (depth_mm > deepest_mm) deepest_mm = depth_mm, first = i, second = j;

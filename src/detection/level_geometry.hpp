@@ -1,5 +1,5 @@
 // Helpers shared by the level checks (level_checks.cpp, empty_level.cpp): lengths in words, a
-// ring's smallest enclosing rectangle, the recipe's smallest sides.
+// ring in millimetres and its smallest enclosing rectangle, the recipe's smallest sides.
 #pragma once
 
 #include <algorithm>
@@ -22,14 +22,17 @@ inline std::string mm(double m) {
   return s.str();
 }
 
-/// The ring's minimum-area enclosing rectangle [mm].
-inline cv::RotatedRect min_area_rect(const Ring2d& ring) {
+/// The ring's points in millimetres, for OpenCV's geometry.
+inline std::vector<cv::Point2f> points_mm(const Ring2d& ring) {
   std::vector<cv::Point2f> pts;
   pts.reserve(ring.size());
   for (const Eigen::Vector2d& v : ring)
     pts.emplace_back(static_cast<float>(v.x() * 1000.0), static_cast<float>(v.y() * 1000.0));
-  return cv::minAreaRect(pts);
+  return pts;
 }
+
+/// The ring's minimum-area enclosing rectangle [mm].
+inline cv::RotatedRect min_area_rect(const Ring2d& ring) { return cv::minAreaRect(points_mm(ring)); }
 
 /// The shortest short side of the recipe's formats [m].
 inline double min_short_m(const std::vector<BoxFormat>& formats) {
