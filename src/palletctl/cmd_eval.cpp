@@ -141,6 +141,7 @@ nlohmann::json to_json(const FrameEval& f) {
   return {{"frame", f.frame},
           {"status", f.status},
           {"ambiguous", f.ambiguous},
+          {"flag_reason", f.flag_reason},
           {"truth_boxes", f.truth_boxes},
           {"detected_boxes", f.detected_boxes},
           {"matched", f.matched},

@@ -221,11 +221,17 @@ void register_simulate(CLI::App& app) {
   auto args = std::make_shared<SimulateArgs>();
   CLI::App* cmd = app.add_subcommand("simulate", "Render simulated depth frames of pallet layers with ground truth");
   cmd->add_option("--out", args->out, "output folder (created when missing)")->required();
-  cmd->add_option("-n,--count", args->count, "number of frames")->capture_default_str()->check(CLI::Range(1, 100000));
+  cmd->add_option(
+         "-n,--count", args->count,
+         "number of frames; every combination of the patterns, profiles and scenes listed comes once "
+         "per round of that many frames, in an order drawn from the seed")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
   cmd->add_option("--pattern", args->patterns,
-                  "layer pattern(s), cycled: block, interlock, brick, pinwheel, chimney, mixed, all")
+                  "layer pattern(s): block, interlock, brick, pinwheel, chimney, mixed, all")
       ->capture_default_str();
-  cmd->add_option("--profile", args->profiles, "sensor profile(s), cycled: o3d303, o3d303-small, blaze101, helios2, xtion, d435, all")
+  cmd->add_option("--profile", args->profiles,
+                  "sensor profile(s): o3d303, o3d303-small, blaze101, helios2, xtion, d435, all")
       ->capture_default_str();
   cmd->add_option("--pallet", args->pallet, "eur (1200x800), ind (1200x1000) or none")->capture_default_str();
   cmd->add_option("--format", args->formats, "box format LONGxSHORT[xHEIGHT] in mm (mixed takes two); default per pattern");
@@ -243,7 +249,7 @@ void register_simulate(CLI::App& app) {
   cmd->add_flag("--no-noise", args->no_noise, "no noise, dropouts or multipath (geometry only)");
   cmd->add_flag("--partial-view", args->partial_view, "do not force the top layer into view");
   cmd->add_option("--scene", args->scenes,
-                  "scene family(ies), cycled: isolated, cell, stepped (1-3 boxes on a full level), empty (bare "
+                  "scene family(ies): isolated, cell, stepped (1-3 boxes on a full level), empty (bare "
                   "pallet), slip_sheet, all")
       ->capture_default_str();
   cmd->add_flag("--cell", args->cell, "put every scene in a cell (cabinet, posts, conveyor, second stack; writes STEM.roi.yaml)");

@@ -100,6 +100,7 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
   e.status = to_string(detection.status);
   e.expect = truth.expect.empty() ? "boxes" : truth.expect;
   e.ambiguous = detection.ambiguous;
+  if (detection.ambiguous) e.flag_reason = detection.ambiguity_reason;
   e.truth_boxes = truth.boxes.size();
   e.detected_boxes = detection.boxes.size();
   auto total = detection.timing_ms.find("total");

@@ -84,6 +84,25 @@ std::uint64_t frame_seed(std::uint64_t seed, std::uint64_t index) {
   return detail::splitmix64(detail::splitmix64(seed) + index);
 }
 
+std::vector<detail::Combination> detail::frame_combinations(std::size_t patterns, std::size_t profiles,
+                                                            std::size_t scenes, std::uint64_t seed,
+                                                            std::size_t count) {
+  const std::size_t round = patterns * profiles * scenes;
+  std::vector<Combination> out;
+  out.reserve(count);
+  std::vector<std::size_t> deck(round);
+  for (std::size_t r = 0; round > 0 && out.size() < count; ++r) {
+    for (std::size_t c = 0; c < round; ++c) deck[c] = c;
+    Rng rng(seed, 0xDEC0 + r);
+    for (std::size_t k = round; k > 1; --k) std::swap(deck[k - 1], deck[rng.index(k)]);  // Fisher-Yates
+    for (std::size_t k = 0; k < round && out.size() < count; ++k) {
+      const std::size_t c = deck[k];
+      out.push_back({c % patterns, (c / patterns) % profiles, c / (patterns * profiles)});
+    }
+  }
+  return out;
+}
+
 Expected<std::vector<SimulatedFrame>> generate_set(const SetOptions& options) {
   const std::vector<PatternFamily> patterns =
       options.patterns.empty() ? std::vector<PatternFamily>{PatternFamily::kBlock, PatternFamily::kInterlock,
@@ -102,18 +121,21 @@ Expected<std::vector<SimulatedFrame>> generate_set(const SetOptions& options) {
     if (!p) return Error{p.error()};
     profiles.push_back(*p);
   }
+  const auto count = static_cast<std::size_t>(std::max(0, options.count));
+  const std::vector<detail::Combination> shown = detail::frame_combinations(
+      patterns.size(), profiles.size(), std::max<std::size_t>(1, options.scenes.size()), options.seed, count);
   std::vector<SimulatedFrame> frames;
-  frames.reserve(static_cast<std::size_t>(std::max(0, options.count)));
-  for (int i = 0; i < options.count; ++i) {
-    const auto index = static_cast<std::size_t>(i);
+  frames.reserve(count);
+  for (std::size_t index = 0; index < count; ++index) {
+    const int i = static_cast<int>(index);
     const std::uint64_t seed = frame_seed(options.seed, index);
     detail::Rng rng(seed, 0x5E7);
     ScenarioOptions scenario = options.scenario;
-    scenario.pattern = patterns[index % patterns.size()];
+    scenario.pattern = patterns[shown[index].pattern];
     scenario.fill = rng.uniform(options.fill_min, options.fill_max);
     scenario.removal = removals[rng.index(removals.size())];
-    if (!options.scenes.empty()) scenario.scene = options.scenes[index % options.scenes.size()];
-    const SensorProfile& profile = profiles[index % profiles.size()];
+    if (!options.scenes.empty()) scenario.scene = options.scenes[shown[index].scene];
+    const SensorProfile& profile = profiles[shown[index].profile];
     auto scene = make_scene(scenario, profile, seed);
     if (!scene) return Error{scene.error()};
     SimulatedFrame frame = render(*scene, profile, seed, options.render);

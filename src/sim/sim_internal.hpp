@@ -125,4 +125,15 @@ std::vector<std::size_t> stereo_sources(const std::vector<double>& z, int w, int
 /// True when a part of the surroundings lies between the camera and one of the world points.
 bool surroundings_hide(const Scene& scene, const std::vector<Eigen::Vector3d>& points_world);
 
+/// Which pattern, profile and scene (indices into generate_set's lists) a frame shows.
+struct Combination {
+  std::size_t pattern = 0, profile = 0, scene = 0;
+};
+/// The combinations of `count` frames: every one of patterns x profiles x scenes once per round
+/// of that many frames, in an order shuffled per round from `seed`, so that no pattern is always
+/// seen by the same camera (cycling each list by the frame index pairs the k-th pattern with the
+/// k-th profile whenever the lists are as long).
+std::vector<Combination> frame_combinations(std::size_t patterns, std::size_t profiles, std::size_t scenes,
+                                            std::uint64_t seed, std::size_t count);
+
 }  // namespace palletd::sim::detail

@@ -1,8 +1,9 @@
 // Scene building: patterns fit the pallet without overlaps, partial layers, camera placement.
-#include <catch2/catch.hpp>
-
 #include <map>
 #include <set>
+#include <tuple>
+
+#include <catch2/catch.hpp>
 
 #include "../../src/sim/sim_internal.hpp"
 #include "sim_test_util.hpp"
@@ -272,4 +273,39 @@ TEST_CASE("truth boxes lie inside the image") {
         CHECK(-truth.layer_plane.normal.z() >= std::cos(30.0 * detail::kPi / 180.0) - 1e-9);
       }
   }
+}
+
+TEST_CASE("a set shows every pattern on every profile in every scene once per round") {
+  const std::size_t patterns = 6, profiles = 6, scenes = 5, round = patterns * profiles * scenes;
+  const auto shown = detail::frame_combinations(patterns, profiles, scenes, 90881, 2 * round + 7);
+  REQUIRE(shown.size() == 2 * round + 7);
+  for (std::size_t r = 0; r < 2; ++r) {
+    std::set<std::tuple<std::size_t, std::size_t, std::size_t>> seen;
+    for (std::size_t k = r * round; k < (r + 1) * round; ++k) {
+      const detail::Combination& c = shown[k];
+      REQUIRE(c.pattern < patterns);
+      REQUIRE(c.profile < profiles);
+      REQUIRE(c.scene < scenes);
+      seen.insert({c.pattern, c.profile, c.scene});
+    }
+    CHECK(seen.size() == round);
+  }
+  // The k-th pattern is not tied to the k-th profile within the first few frames either.
+  std::set<std::size_t> profiles_of_block;
+  for (std::size_t k = 0; k < 60; ++k) {
+    if (shown[k].pattern == 0) profiles_of_block.insert(shown[k].profile);
+  }
+  CHECK(profiles_of_block.size() >= 3);
+  // The order is the seed's: the same seed repeats it, another seed changes it.
+  const auto again = detail::frame_combinations(patterns, profiles, scenes, 90881, 40);
+  const auto other = detail::frame_combinations(patterns, profiles, scenes, 90882, 40);
+  std::size_t same = 0, differ = 0;
+  for (std::size_t k = 0; k < 40; ++k) {
+    same += again[k].pattern == shown[k].pattern && again[k].profile == shown[k].profile &&
+            again[k].scene == shown[k].scene;
+    differ += other[k].pattern != shown[k].pattern || other[k].profile != shown[k].profile ||
+              other[k].scene != shown[k].scene;
+  }
+  CHECK(same == 40);
+  CHECK(differ > 20);
 }

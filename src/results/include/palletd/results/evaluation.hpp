@@ -38,6 +38,7 @@ struct FrameEval {
   std::string status;         ///< the detection's status word
   std::string expect = "boxes";  ///< what the truth asks for: boxes, empty, slip_sheet (Truth::expect)
   bool ambiguous = false;
+  std::string flag_reason;  ///< Detection::ambiguity_reason ("" when not flagged)
   std::size_t truth_boxes = 0, detected_boxes = 0, matched = 0;
   std::vector<double> position_errors_mm;  ///< per matched pair
   std::vector<double> yaw_errors_deg;      ///< per matched pair, mod 180

@@ -193,9 +193,10 @@ SimulatedFrame render(const Scene& scene, const SensorProfile& profile, std::uin
 /// Truth of a scene in its camera frame (what render() puts into SimulatedFrame::truth).
 Truth make_truth(const Scene& scene);
 
-/// Many frames in memory, e.g. for benchmarks. Frame i uses seed mix(seed, i); patterns and
-/// profiles cycle through the lists, fill is drawn in [fill_min, fill_max], the removal mode at
-/// random when the lists hold several.
+/// Many frames in memory, e.g. for benchmarks. Frame i uses seed mix(seed, i); each round of
+/// patterns x profiles x scenes frames shows every combination of the lists once, in an order
+/// shuffled from the seed; fill is drawn in [fill_min, fill_max], the removal mode at random when
+/// the list holds several.
 struct SetOptions {
   int count = 20;
   std::uint64_t seed = 1;
@@ -203,7 +204,7 @@ struct SetOptions {
   std::vector<PatternFamily> patterns;  ///< empty: all families
   std::vector<std::string> profiles;    ///< empty: "o3d303"
   std::vector<RemovalMode> removals;    ///< empty: all modes
-  std::vector<SceneFamily> scenes;      ///< cycled; empty: scenario.scene for every frame
+  std::vector<SceneFamily> scenes;      ///< empty: scenario.scene for every frame
   double fill_min = 1.0, fill_max = 1.0;
   RenderOptions render;
 };
