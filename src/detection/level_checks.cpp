@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -31,6 +32,9 @@ constexpr double kDropoutHole_m = 0.04;
 /// pixel pitches (and more than the refinement's size tolerance) is not that format: cartons are
 /// built at or over their format, and a side is placed to about a pixel.
 constexpr double kUndersize_px = 2.0;
+/// A piece of the layer at least this share of the smallest box's top that holds no box is not
+/// explained by the layout (smaller ones are specks of depth at the layer's height).
+constexpr double kUnlaidPieceShare = 0.5;
 /// A sheet covers a whole layer: a tiling of at least this many boxes (a stepped remainder of one
 /// to three cartons is no sheet).
 constexpr std::size_t kMinSheetBoxes = 4;
@@ -169,6 +173,33 @@ std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const 
                                                 "(cartons built over their format, fewer of them)"};
 }
 
+std::optional<LevelVerdict> pieces_without_boxes(const LayoutResult& layout, const LayerResult& layer,
+                                                 const std::vector<BoxFormat>& formats) {
+  double smallest_m2 = std::numeric_limits<double>::max();
+  for (const BoxFormat& f : formats) smallest_m2 = std::min(smallest_m2, f.long_m * f.short_m);
+  std::vector<bool> holds_box(layer.polygons.size(), false);
+  for (const LayoutBox& b : layout.boxes)
+    if (b.component >= 0 && static_cast<std::size_t>(b.component) < holds_box.size())
+      holds_box[static_cast<std::size_t>(b.component)] = true;
+  std::size_t pieces = 0;
+  double largest_m2 = 0.0;
+  for (std::size_t i = 0; i < layer.polygons.size(); ++i) {
+    const double a_m2 = area(layer.polygons[i]);
+    if (holds_box[i] || !(a_m2 >= kUnlaidPieceShare * smallest_m2)) continue;
+    ++pieces;
+    largest_m2 = std::max(largest_m2, a_m2);
+  }
+  if (pieces == 0) return std::nullopt;
+  std::ostringstream size;
+  size.precision(2);
+  size << largest_m2 / smallest_m2;
+  return LevelVerdict{DetectionStatus::kOk, std::to_string(pieces) +
+                                                " piece(s) of the layer hold no box (the largest " +
+                                                size.str() +
+                                                " times the smallest box's top): something at the layer's "
+                                                "height that no carton of the recipe explains"};
+}
+
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout) {
   if (!layout.budget_exhausted) return std::nullopt;
   const std::string unfinished =
@@ -230,9 +261,12 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   // like one slab that boxes tile).
   std::optional<LevelVerdict> slots =
       layout.status == DetectionStatus::kOk ? boxes_over_slots(layout, layer) : std::nullopt;
-  if (layout.status != DetectionStatus::kOk || layout.ambiguous || slots)
+  std::optional<LevelVerdict> unlaid =
+      layout.status == DetectionStatus::kOk ? pieces_without_boxes(layout, layer, formats) : std::nullopt;
+  if (layout.status != DetectionStatus::kOk || layout.ambiguous || slots || unlaid)
     if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity)) return deck;
   if (slots) return slots;
+  if (unlaid) return unlaid;
   if (layout.status != DetectionStatus::kOk) return std::nullopt;
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;

@@ -76,6 +76,12 @@ std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, cons
 /// with a layout that mixes formats (the mixes were not all weighed): flagged (kOk).
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout);
 
+/// A piece of the layer (one of its polygons) at least half as large as the recipe's smallest box
+/// that holds no box: something stands at the layer's height that no carton of the recipe explains
+/// (a carton of another format, the strips of an empty pallet's deck, a fixture): flagged (kOk).
+std::optional<LevelVerdict> pieces_without_boxes(const LayoutResult& layout, const LayerResult& layer,
+                                                 const std::vector<BoxFormat>& formats);
+
 /// A box of the layout lies over a slot in the layer (a hole four times longer than wide under
 /// more than 3 % of its top): flagged (kOk with the sentence); the gaps of a pallet's deck look so.
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);

@@ -181,3 +181,25 @@ TEST_CASE("boxes that reach into each other deeper than the size tolerance flag 
   layout.boxes[2].yaw_rad = 0.3;  // turned: how deep the corners reach, not how far the centres are
   CHECK(overlapping_boxes(layout, RefineParams{}));
 }
+
+TEST_CASE("a piece of the layer as large as half a box that holds no box flags the layout", "[cell][flags]") {
+  auto rect = [](double x0, double y0, double x1, double y1) {
+    PolygonWithHoles p;
+    p.outer = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
+    return p;
+  };
+  const std::vector<BoxFormat> formats{{0.4, 0.3, "400x300"}};
+  LayerResult layer;
+  layer.polygons = {rect(-0.2, -0.15, 1.0, 0.15), rect(1.1, -0.6, 1.25, 0.6)};  // boxes; a strip 150 x 1200
+  LayoutResult layout = layout_seen(0.005, 0.8, {0, 0, 0});
+  const std::optional<LevelVerdict> v = pieces_without_boxes(layout, layer, formats);
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::Contains("1 piece(s) of the layer hold no box (the largest 1.5 times"));
+  // A box on the strip explains it; a speck under half a box's top is no piece.
+  layout.boxes.back().component = 1;
+  CHECK_FALSE(pieces_without_boxes(layout, layer, formats));
+  layout.boxes.back().component = 0;
+  layer.polygons.back() = rect(1.1, -0.1, 1.3, 0.1);  // 0.04 m2, a third of the box's 0.12
+  CHECK_FALSE(pieces_without_boxes(layout, layer, formats));
+}

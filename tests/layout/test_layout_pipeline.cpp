@@ -126,6 +126,7 @@ static void check_bundled_frames(const std::vector<std::string>& stems) {
     CHECK(run.eval.status == "ok");
     CHECK(run.eval.exact);
     CHECK_FALSE(run.eval.ambiguous);
+    CHECK(run.eval.flag_reason.empty());
   }
 }
 
@@ -219,6 +220,7 @@ TEST_CASE("detect() flags a layout with a box whose fit was rejected") {
   REQUIRE(run.eval.status == "ok");
   CHECK(run.eval.ambiguous);
   CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("would move by more than a quarter"));
+  CHECK(run.eval.flag_reason == run.detection.ambiguity_reason);  // eval rows say why they were flagged
   std::size_t rejected = 0;
   for (const DetectedBox& b : run.detection.boxes) rejected += b.score_terms.position_sigma_mm < 0.0 ? 1 : 0;
   CHECK(rejected == 1);
@@ -239,6 +241,20 @@ TEST_CASE("detect() flags a layout whose fitted boxes reach into each other") {
   CHECK(run.detection.boxes.size() == 11);  // one more than stand there
   CHECK(run.eval.ambiguous);
   CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("overlap by"));
+}
+
+// palletd simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
+// --gap-max 20 --seed 90891, frame 77 (an empty EUR pallet 2.6 m below a 176 x 132 camera, 15.7 mm
+// per pixel, no region of interest): the deck's five boards and their gaps merge into three strips
+// 1.2 m long, two of them 290 mm wide; three 400 x 300 boxes were laid on one of them and the two
+// others, as large as 1.5 and 3 boxes, held none (pieces_without_boxes). In doubt, the level is
+// measured against the floor in view: 160 mm above it, an empty pallet.
+TEST_CASE("detect() calls an empty pallet whose boards merged into strips empty, not boxes on a strip") {
+  const BundledRun run = run_bundled("flags/empty_deck_merged_strips_o3d303-small");
+  CHECK(run.eval.status == "empty");
+  CHECK(run.eval.exact);
+  CHECK(run.detection.boxes.empty());
+  CHECK_THAT(run.detection.message, Catch::Contains("above the floor"));
 }
 
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {
