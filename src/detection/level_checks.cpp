@@ -256,18 +256,20 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
                                                const PlaneParams& validity, const RefineParams& refine) {
-  // A confident layout stands; a failed or flagged one on a level as low as a pallet's deck is
-  // the empty pallet (stereo cameras fill the gaps between its boards, and the deck then looks
-  // like one slab that boxes tile).
-  std::optional<LevelVerdict> slots =
-      layout.status == DetectionStatus::kOk ? boxes_over_slots(layout, layer) : std::nullopt;
-  std::optional<LevelVerdict> unlaid =
-      layout.status == DetectionStatus::kOk ? pieces_without_boxes(layout, layer, formats) : std::nullopt;
-  if (layout.status != DetectionStatus::kOk || layout.ambiguous || slots || unlaid)
+  // A confident layout stands; a failed or flagged one, or one with boxes over slots or holes or
+  // pieces of the layer without boxes, on a level as low as a pallet's deck is the empty pallet
+  // (stereo cameras and coarse pitches merge its boards and gaps into strips or one slab that
+  // boxes tile).
+  const bool ok = layout.status == DetectionStatus::kOk;
+  std::optional<LevelVerdict> slots = ok ? boxes_over_slots(layout, layer) : std::nullopt;
+  std::optional<LevelVerdict> unlaid = ok ? pieces_without_boxes(layout, layer, formats) : std::nullopt;
+  std::optional<LevelVerdict> holes = ok ? boxes_over_holes(cloud, layout, layer) : std::nullopt;
+  if (!ok || layout.ambiguous || slots || unlaid || holes)
     if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity)) return deck;
   if (slots) return slots;
   if (unlaid) return unlaid;
-  if (layout.status != DetectionStatus::kOk) return std::nullopt;
+  if (holes) return holes;
+  if (!ok) return std::nullopt;
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
   if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;

@@ -82,6 +82,12 @@ std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout);
 std::optional<LevelVerdict> pieces_without_boxes(const LayoutResult& layout, const LayerResult& layer,
                                                  const std::vector<BoxFormat>& formats);
 
+/// Boxes whose top, read in the depth at least 25 mm (or two pixel pitches) inside their sides,
+/// lies more than 40 mm below the layer's plane over at least a tenth of its samples: the layout
+/// put a carton over a hole the outline lost (a chimney, a carton already picked): flagged (kOk).
+std::optional<LevelVerdict> boxes_over_holes(const OrganizedCloud& cloud, const LayoutResult& layout,
+                                             const LayerResult& layer);
+
 /// A box of the layout lies over a slot in the layer (a hole four times longer than wide under
 /// more than 3 % of its top): flagged (kOk with the sentence); the gaps of a pallet's deck look so.
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);

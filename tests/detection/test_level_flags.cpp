@@ -2,7 +2,8 @@
 // pitch, or no mixed pixels at edges: stereo, structured light): a layout that mixes formats, a
 // search that ended on its budget. Where the camera shows seams, the seams decide and neither flags;
 // on every camera: boxes placed less surely than the limit, boxes measured shorter than their format,
-// boxes that reach into each other.
+// boxes that reach into each other, pieces of the layer without boxes, boxes the depth sees
+// through.
 #include <catch2/catch.hpp>
 
 #include "palletd/detection/layout.hpp"
@@ -202,4 +203,66 @@ TEST_CASE("a piece of the layer as large as half a box that holds no box flags t
   layout.boxes.back().component = 0;
   layer.polygons.back() = rect(1.1, -0.1, 1.3, 0.1);  // 0.04 m2, a third of the box's 0.12
   CHECK_FALSE(pieces_without_boxes(layout, layer, formats));
+}
+
+namespace {
+
+/// A camera 2 m above a level layer looking straight down (200 x 200 pixels, 10 mm per pixel on
+/// the layer); pixels whose ray meets the layer inside `hole` (camera x, y) see `hole_depth_m`.
+struct LookingDown {
+  OrganizedCloud cloud;
+  LayerResult layer;
+};
+
+LookingDown looking_down(const Eigen::AlignedBox2d& hole, double hole_depth_m) {
+  LookingDown s;
+  s.cloud.width = s.cloud.height = 200;
+  for (int v = 0; v < 200; ++v) {
+    for (int u = 0; u < 200; ++u) {
+      const Eigen::Vector3d ray((u - 100) / 200.0, (v - 100) / 200.0, 1.0);
+      const bool in_hole = hole.contains(Eigen::Vector2d(2.0 * ray.x(), 2.0 * ray.y()));
+      s.cloud.points.push_back((ray * (in_hole ? hole_depth_m : 2.0)).cast<float>());
+    }
+  }
+  s.layer.plane_camera.normal = Eigen::Vector3d(0.0, 0.0, -1.0);  // towards the camera
+  s.layer.plane_camera.d = 2.0;
+  Eigen::Matrix3d R;
+  R.col(0) = Eigen::Vector3d::UnitX();
+  R.col(1) = -Eigen::Vector3d::UnitY();
+  R.col(2) = -Eigen::Vector3d::UnitZ();
+  s.layer.T_camera_layer.linear() = R;  // layer (x, y, 0) -> camera (x, -y, 2)
+  s.layer.T_camera_layer.translation() = Eigen::Vector3d(0.0, 0.0, 2.0);
+  return s;
+}
+
+LayoutResult one_box_at(double x_m) {
+  LayoutResult layout = layout_seen(0.01, 0.8, {0});
+  layout.boxes.front().center = Eigen::Vector2d(x_m, 0.0);
+  return layout;
+}
+
+}  // namespace
+
+TEST_CASE("a box the depth sees through to a level below flags the layout", "[cell][flags]") {
+  // A hole 200 x 200 mm showing depth 0.3 m below the layer.
+  const LookingDown s =
+      looking_down(Eigen::AlignedBox2d(Eigen::Vector2d(0.1, -0.1), Eigen::Vector2d(0.3, 0.1)), 2.3);
+  const std::optional<LevelVerdict> v = boxes_over_holes(s.cloud, one_box_at(0.2), s.layer);
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::Contains("1 box(es) stand over a hole"));
+  CHECK_FALSE(boxes_over_holes(s.cloud, one_box_at(-0.4), s.layer));  // the box beside the hole
+  // A dip of 30 mm (a sagging top, a seam) is no hole.
+  const LookingDown dip =
+      looking_down(Eigen::AlignedBox2d(Eigen::Vector2d(0.1, -0.1), Eigen::Vector2d(0.3, 0.1)), 2.03);
+  CHECK_FALSE(boxes_over_holes(dip.cloud, one_box_at(0.2), dip.layer));
+}
+
+TEST_CASE("depth seen past a box's side, under its overhang, is no hole in its top", "[cell][flags]") {
+  // Rays that meet the layer 450-540 mm off the centre see a level 0.6 m lower: straight below a
+  // box spanning 550-950 mm (585-700 mm at that depth), but past its side, where no top is.
+  const LookingDown s =
+      looking_down(Eigen::AlignedBox2d(Eigen::Vector2d(0.45, -0.1), Eigen::Vector2d(0.54, 0.1)), 2.6);
+  CHECK_FALSE(boxes_over_holes(s.cloud, one_box_at(0.75), s.layer));
+  CHECK(boxes_over_holes(s.cloud, one_box_at(0.45), s.layer));  // a box where the rays meet the layer
 }

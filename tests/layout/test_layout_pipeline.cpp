@@ -257,6 +257,19 @@ TEST_CASE("detect() calls an empty pallet whose boards merged into strips empty,
   CHECK_THAT(run.detection.message, Catch::Contains("above the floor"));
 }
 
+// palletd simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
+// --gap-max 20 --seed 90891, frame 306 (helios2 tilted about 25 degrees, 2.9 m away): a chimney
+// layer of eleven cartons whose hole reaches a gap between two cartons through a channel a pixel
+// wide; the outline loses the hole and a twelfth box fills it, the boxes around it moved up to
+// 45 mm. The depth seen through that box's top lies on the level below (boxes_over_holes).
+TEST_CASE("detect() flags a layout with a box over a hole the outline lost") {
+  const BundledRun run = run_bundled("flags/chimney_315x232_lost_hole_helios2");
+  REQUIRE(run.eval.status == "ok");
+  CHECK(run.detection.boxes.size() == 12);  // one more than stand there
+  CHECK(run.eval.ambiguous);
+  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("stand over a hole"));
+}
+
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {
   LayoutParams p;
   p.search.time_budget_ms = 2000.0;
