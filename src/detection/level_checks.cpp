@@ -96,6 +96,26 @@ std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout) {
                           ": another mix of the recipe's formats may fill the outline as well"};
 }
 
+std::optional<LevelVerdict> seams_across_boxes(const LayoutResult& layout) {
+  if (!resolves_seams(layout)) return std::nullopt;
+  std::size_t crossed = 0;
+  double strongest = 0.0;
+  for (const LayoutBox& b : layout.boxes) {
+    if (!(b.evidence.interior_seam >= kSplitSeam)) continue;
+    ++crossed;
+    strongest = std::max(strongest, b.evidence.interior_seam);
+  }
+  if (crossed == 0) return std::nullopt;
+  std::ostringstream strength;
+  strength.precision(2);
+  strength << strongest;
+  return LevelVerdict{DetectionStatus::kOk,
+                      std::to_string(crossed) +
+                          " box(es) have a seam line across their top (strength up to " + strength.str() +
+                          ") on a camera that shows seams: the cartons stand otherwise "
+                          "(a mirrored pinwheel, a shifted row)"};
+}
+
 std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, const RefineParams& refine) {
   if (!(refine.max_position_sigma_mm > 0.0)) return std::nullopt;
   const double max_sigma_mm =
@@ -273,6 +293,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
   if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;
+  if (std::optional<LevelVerdict> crossed = seams_across_boxes(layout)) return crossed;
   if (std::optional<LevelVerdict> small = undersized_boxes(layout, formats, refine)) return small;
   if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, refine)) return unsure;
   if (std::optional<LevelVerdict> crowded = overlapping_boxes(layout, refine)) return crowded;

@@ -52,6 +52,12 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
 /// told apart by the outline alone, and another mix of them may fill it as well: flagged (kOk).
 std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout);
 
+/// Boxes with a seam line across their top at least as strong as one that tells one box from two
+/// (LayoutBox evidence interior_seam >= 0.5), on a camera that shows narrow seams (a fine pitch
+/// and mixed pixels at edges): no carton's top shows one, so the cartons stand otherwise than
+/// laid out (a pinwheel's mirror image, a row shifted by part of a carton): flagged (kOk).
+std::optional<LevelVerdict> seams_across_boxes(const LayoutResult& layout);
+
 /// Boxes whose own two opposite sides (LayoutBox evidence measured_long_m / measured_short_m)
 /// measure them shorter than their format by more than refine.size_tolerance_m and two pixel
 /// pitches: flagged (kOk); another format, or two cartons taken for one.

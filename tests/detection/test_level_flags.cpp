@@ -1,9 +1,9 @@
 // The flags level_checks.hpp raises on a camera that does not show narrow seams (a coarse pixel
 // pitch, or no mixed pixels at edges: stereo, structured light): a layout that mixes formats, a
-// search that ended on its budget. Where the camera shows seams, the seams decide and neither flags;
-// on every camera: boxes placed less surely than the limit, boxes measured shorter than their format,
-// boxes that reach into each other, pieces of the layer without boxes, boxes the depth sees
-// through.
+// search that ended on its budget. Where the camera shows seams, the seams decide and neither flags,
+// and a seam across a box's top flags; on every camera: boxes placed less surely than the limit,
+// boxes measured shorter than their format, boxes that reach into each other, pieces of the layer
+// without boxes, boxes the depth sees through.
 #include <catch2/catch.hpp>
 
 #include "palletd/detection/layout.hpp"
@@ -265,4 +265,20 @@ TEST_CASE("depth seen past a box's side, under its overhang, is no hole in its t
       looking_down(Eigen::AlignedBox2d(Eigen::Vector2d(0.45, -0.1), Eigen::Vector2d(0.54, 0.1)), 2.6);
   CHECK_FALSE(boxes_over_holes(s.cloud, one_box_at(0.75), s.layer));
   CHECK(boxes_over_holes(s.cloud, one_box_at(0.45), s.layer));  // a box where the rays meet the layer
+}
+
+TEST_CASE("a seam line across a box's top flags the layout where the camera shows seams", "[cell][flags]") {
+  LayoutResult tof = layout_seen(0.005, 0.5, {0, 0, 0});  // 5 mm per pixel, mixed pixels at edges
+  tof.boxes[1].evidence.interior_seam = 0.74;
+  const std::optional<LevelVerdict> v = seams_across_boxes(tof);
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message,
+             Catch::Contains("1 box(es) have a seam line across their top (strength up to 0.74)"));
+  tof.boxes[1].evidence.interior_seam = 0.3;  // a weak line: tape, print, noise
+  CHECK_FALSE(seams_across_boxes(tof));
+  // Where the camera does not show narrow seams a line across a top is not read as one.
+  LayoutResult coarse = layout_seen(0.015, 0.7, {0, 0, 0});
+  coarse.boxes[1].evidence.interior_seam = 0.9;
+  CHECK_FALSE(seams_across_boxes(coarse));
 }

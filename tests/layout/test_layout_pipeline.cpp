@@ -270,6 +270,18 @@ TEST_CASE("detect() flags a layout with a box over a hole the outline lost") {
   CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("stand over a hole"));
 }
 
+// palletd simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
+// --gap-max 20 --seed 90892, frame 99 (blaze101, 5.8 mm per pixel): a pinwheel of four cartons
+// beside six others, laid out as its mirror image; the search found no other candidate, and the
+// seams of the real pinwheel cross the tops of the boxes laid out (seams_across_boxes).
+TEST_CASE("detect() flags a layout whose boxes a seen seam crosses") {
+  const BundledRun run = run_bundled("flags/pinwheel_315x232_mirrored_blaze101");
+  REQUIRE(run.eval.status == "ok");
+  CHECK_FALSE(run.eval.exact);
+  CHECK(run.eval.ambiguous);
+  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("seam line across their top"));
+}
+
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {
   LayoutParams p;
   p.search.time_budget_ms = 2000.0;
