@@ -266,8 +266,8 @@ Detection lay_out_layer(const Frame& frame, const std::vector<BoxFormat>& format
     out.ambiguity_reason = std::move(reason);
     out.ambiguity_kinds.push_back(kind);
   }
-  if (std::optional<LevelVerdict> level =
-          level_after_layout(cloud, layout, out.layer, formats, params.plane, params.layout.refine)) {
+  if (std::optional<LevelVerdict> level = level_after_layout(cloud, layout, out.layer, formats, params.plane,
+                                                             params.layout.refine, frame.T_base_camera)) {
     if (level->status != DetectionStatus::kOk) return without_boxes(*level);
     out.ambiguous = true;
     out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + level->message;

@@ -3,6 +3,7 @@
 // boards) and the layer's height above the pallet.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -142,8 +143,28 @@ std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& l
 }
 
 std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const LayerResult& layer,
-                                             const PlaneParams& validity) {
-  // Heights below the layer's plane of about 10^4 sampled points, in 1 cm bins.
+                                             const PlaneParams& validity,
+                                             const std::optional<Eigen::Isometry3d>& T_base_camera) {
+  // Heights below the top level of about 10^4 sampled points, in 1 cm bins: along the base's up
+  // axis when the calibration gives it (below_m = a . p + b), measured from the highest piece of
+  // the level, else from the layer's plane. A noisy camera far away may take a strip of floor
+  // into the level of a deck or a sheet, and the plane fitted across both tilts the floor into a
+  // slope; the highest piece is the deck or the sheet, not the strip.
+  Eigen::Vector3d a = -layer.plane_camera.normal;
+  double b_m = -layer.plane_camera.d;
+  if (T_base_camera) {
+    const Eigen::Vector3d up = T_base_camera->linear().row(2).transpose();
+    a = -up;
+    b_m = -std::numeric_limits<double>::max();
+    for (const PolygonWithHoles& piece : layer.polygons) {
+      Eigen::Vector2d c = Eigen::Vector2d::Zero();
+      for (const Eigen::Vector2d& v : piece.outer) c += v;
+      if (piece.outer.empty()) continue;
+      c /= static_cast<double>(piece.outer.size());
+      b_m = std::max(b_m, up.dot(layer.T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0)));
+    }
+    if (layer.polygons.empty()) return std::nullopt;
+  }
   constexpr double kBin_m = 0.01;
   constexpr int kBins = 400;  // down to 4 m
   std::vector<int> bins(kBins, 0);
@@ -154,7 +175,7 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
       const Eigen::Vector3f& p = cloud.at(u, v);
       if (!p.allFinite() || p.z() < validity.min_depth_m || p.z() > validity.max_depth_m) continue;
       ++sampled;
-      const double below_m = -layer.plane_camera.signed_distance(p.cast<double>());
+      const double below_m = a.dot(p.cast<double>()) + b_m;
       const int b = static_cast<int>(below_m / kBin_m);
       if (below_m > 0.0 && b < kBins) ++bins[static_cast<std::size_t>(b)];
     }

@@ -275,7 +275,8 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
-                                               const PlaneParams& validity, const RefineParams& refine) {
+                                               const PlaneParams& validity, const RefineParams& refine,
+                                               const std::optional<Eigen::Isometry3d>& T_base_camera) {
   // A confident layout stands; a failed or flagged one, or one with boxes over slots or holes or
   // pieces of the layer without boxes, on a level as low as a pallet's deck is the empty pallet
   // (stereo cameras and coarse pitches merge its boards and gaps into strips or one slab that
@@ -285,7 +286,8 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   std::optional<LevelVerdict> unlaid = ok ? pieces_without_boxes(layout, layer, formats) : std::nullopt;
   std::optional<LevelVerdict> holes = ok ? boxes_over_holes(cloud, layout, layer) : std::nullopt;
   if (!ok || layout.ambiguous || slots || unlaid || holes)
-    if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity)) return deck;
+    if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity, T_base_camera))
+      return deck;
   if (slots) return slots;
   if (unlaid) return unlaid;
   if (holes) return holes;

@@ -30,9 +30,11 @@ std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& l
 
 /// After a layout failed: the top level stands less than 0.2 m above the lowest large level in
 /// view (the floor, at least a tenth of the sampled points), lower than any carton layer on a
-/// pallet, so it is an empty pallet's deck (kEmpty).
+/// pallet, so it is an empty pallet's deck (kEmpty). Heights along the base's up axis from the
+/// level's centre when `T_base_camera` is known, else from the layer's plane.
 std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const LayerResult& layer,
-                                             const PlaneParams& validity);
+                                             const PlaneParams& validity,
+                                             const std::optional<Eigen::Isometry3d>& T_base_camera);
 
 /// A layout whose interior box sides show no seam anywhere while the layer is one rectangle: a
 /// sheet covers the layer (kSlipSheet) where the sensor resolves seams; where it cannot, the
@@ -98,13 +100,15 @@ std::optional<LevelVerdict> boxes_over_holes(const OrganizedCloud& cloud, const 
 /// more than 3 % of its top): flagged (kOk with the sentence); the gaps of a pallet's deck look so.
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);
 
-/// After the layout: deck_above_floor when the layout failed, is flagged or covers a slot; the
-/// slot's flag; else slip_sheet, formats_undecided, mix_by_outline, undersized_boxes, uncertain_positions,
+/// After the layout: deck_above_floor when the layout failed or is flagged, or a box covers a slot
+/// or a hole, or a piece of the layer holds no box; then those flags; else slip_sheet,
+/// formats_undecided, mix_by_outline, seams_across_boxes, undersized_boxes, uncertain_positions,
 /// overlapping_boxes (`refine`), search_unfinished.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
-                                               const PlaneParams& validity, const RefineParams& refine);
+                                               const PlaneParams& validity, const RefineParams& refine,
+                                               const std::optional<Eigen::Isometry3d>& T_base_camera);
 
 /// Fills height_above_pallet_m and layers_remaining; flags the result (ambiguous, with a reason)
 /// when the height is not a whole number of box heights.

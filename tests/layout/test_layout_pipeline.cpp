@@ -282,6 +282,23 @@ TEST_CASE("detect() flags a layout whose boxes a seen seam crosses") {
   CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("seam line across their top"));
 }
 
+// palletd simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
+// --gap-max 20 --seed 90892, frame 161 (an empty pallet 2.6 m from a structured-light camera, no
+// region of interest), and --seed 90891, frame 183 (a slip sheet on one layer of cartons, d435,
+// tilted about 30 degrees): at the far side of the view the depth's noise lets a strip of floor
+// into the top level, and the plane fitted across both tilts the rest of the floor into a slope.
+// Heights along the base's up axis from the level's highest piece find the floor 0.14 m below
+// the deck (empty) and 0.35 m or more below the sheet (not a deck: the sheet stays flagged).
+TEST_CASE("detect() finds the floor below a deck whose level took in a strip of floor") {
+  const BundledRun deck = run_bundled("flags/empty_deck_with_floor_strip_xtion");
+  CHECK(deck.eval.status == "empty");
+  CHECK(deck.detection.boxes.empty());
+  CHECK_THAT(deck.detection.message, Catch::Contains("above the floor"));
+  const BundledRun sheet = run_bundled("flags/slip_sheet_with_floor_strip_d435");
+  CHECK(sheet.eval.status != "empty");
+  CHECK((sheet.eval.status != "ok" || sheet.eval.ambiguous));  // never an unflagged layout
+}
+
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {
   LayoutParams p;
   p.search.time_budget_ms = 2000.0;
