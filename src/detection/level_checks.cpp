@@ -35,6 +35,11 @@ constexpr double kUndersize_px = 2.0;
 /// A piece of the layer at least this share of the smallest box's top that holds no box is not
 /// explained by the layout (smaller ones are specks of depth at the layer's height).
 constexpr double kUnlaidPieceShare = 0.5;
+/// Whatever the millimetre limit, a box the joint fit places no better than this many pixel
+/// pitches (and this many millimetres) flags: the sides that hold it are seen far worse than this
+/// camera sees sides (exact layouts stay under 1.4 pitches on every generated set).
+constexpr double kMaxSigma_px = 2.0;
+constexpr double kMinSigmaLimit_mm = 5.0;
 /// A sheet covers a whole layer: a tiling of at least this many boxes (a stepped remainder of one
 /// to three cartons is no sheet).
 constexpr std::size_t kMinSheetBoxes = 4;
@@ -118,8 +123,10 @@ std::optional<LevelVerdict> seams_across_boxes(const LayoutResult& layout) {
 
 std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, const RefineParams& refine) {
   if (!(refine.max_position_sigma_mm > 0.0)) return std::nullopt;
+  const double pitch_mm = 1e3 * layout.pixel_pitch_m;
   const double max_sigma_mm =
-      std::max(refine.max_position_sigma_mm, refine.max_position_sigma_px * 1e3 * layout.pixel_pitch_m);
+      std::min(std::max(refine.max_position_sigma_mm, refine.max_position_sigma_px * pitch_mm),
+               std::max(kMaxSigma_px * pitch_mm, kMinSigmaLimit_mm));
   std::size_t uncertain = 0, rejected = 0;
   double widest_m = 0.0;
   for (const LayoutBox& b : layout.boxes) {

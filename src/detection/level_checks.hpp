@@ -74,8 +74,9 @@ std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const 
 
 /// Boxes whose fitted position is uncertain (one sigma; LayoutBox evidence position_sigma_m) by
 /// more than refine.max_position_sigma_mm and more than refine.max_position_sigma_px pixel
-/// pitches, or whose fit was rejected (evidence fit_rejected: the sides seen around it would move
-/// it by more than a quarter of its short side): flagged (kOk); max_position_sigma_mm 0 = never.
+/// pitches, or by more than two pitches and 5 mm whatever those limits, or whose fit was rejected (evidence
+/// fit_rejected: the sides seen around it would move it by more than a quarter of its short side): flagged
+/// (kOk); max_position_sigma_mm 0 = never.
 std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, const RefineParams& refine);
 
 /// The search ended on its budget (LayoutResult::budget_exhausted) on a camera that does not show

@@ -79,20 +79,39 @@ RefineParams position_limits(double max_mm, double max_px) {
 }  // namespace
 
 TEST_CASE("a box placed less surely than the limit flags the layout, whatever the camera", "[cell][flags]") {
-  LayoutResult layout = layout_seen(0.004, 0.8, {0, 0, 0});
+  LayoutResult layout = layout_seen(0.008, 0.8, {0, 0, 0});  // two pitches: 16 mm
   layout.boxes[0].evidence.position_sigma_m = 0.004;
-  layout.boxes[1].evidence.position_sigma_m = 0.019;
+  layout.boxes[1].evidence.position_sigma_m = 0.012;
   layout.boxes[2].evidence.position_sigma_m = -1.0;  // not refined: nothing to judge
-  const std::optional<LevelVerdict> v = uncertain_positions(layout, position_limits(10.0, 2.0));
+  const std::optional<LevelVerdict> v = uncertain_positions(layout, position_limits(10.0, 1.0));
   REQUIRE(v);
   CHECK(v->status == DetectionStatus::kOk);
-  CHECK_THAT(v->message, Catch::StartsWith("1 box(es)") && Catch::Contains("up to 19 mm"));
-  CHECK_FALSE(uncertain_positions(layout, position_limits(20.0, 2.0)));
-  CHECK_FALSE(uncertain_positions(layout, position_limits(0.0, 2.0)));  // 0: never
+  CHECK_THAT(v->message, Catch::StartsWith("1 box(es)") && Catch::Contains("up to 12 mm"));
+  CHECK_FALSE(uncertain_positions(layout, position_limits(20.0, 1.0)));
+  CHECK_FALSE(uncertain_positions(layout, position_limits(0.0, 1.0)));  // 0: never
   CHECK(RefineParams{}.max_position_sigma_mm > 0.0);                    // on by default
   CHECK(uncertain_positions(layout, RefineParams{}));
   layout.boxes[1].evidence.position_sigma_m = 0.009;
-  CHECK_FALSE(uncertain_positions(layout, position_limits(10.0, 2.0)));
+  CHECK_FALSE(uncertain_positions(layout, position_limits(10.0, 1.0)));
+}
+
+TEST_CASE("a box placed worse than two pixel pitches flags the layout, whatever the millimetre limit",
+          "[cell][flags]") {
+  // 4.2 mm per pixel: two pitches are 8.4 mm, under the 10 mm limit.
+  LayoutResult fine = layout_seen(0.0042, 0.8, {0, 0, 0});
+  fine.boxes[1].evidence.position_sigma_m = 0.0092;
+  const std::optional<LevelVerdict> v = uncertain_positions(fine, RefineParams{});
+  REQUIRE(v);
+  CHECK_THAT(v->message, Catch::Contains("less surely than 8 mm"));
+  CHECK(uncertain_positions(fine, position_limits(20.0, 1.0)));  // a looser limit in mm does not hide it
+  fine.boxes[1].evidence.position_sigma_m = 0.0075;
+  CHECK_FALSE(uncertain_positions(fine, RefineParams{}));
+  // At 2 mm per pixel the limit stays at 5 mm.
+  LayoutResult finer = layout_seen(0.002, 0.8, {0, 0, 0});
+  finer.boxes[1].evidence.position_sigma_m = 0.0045;
+  CHECK_FALSE(uncertain_positions(finer, RefineParams{}));
+  finer.boxes[1].evidence.position_sigma_m = 0.006;
+  CHECK(uncertain_positions(finer, RefineParams{}));
 }
 
 TEST_CASE("the position limit grows with the pixel pitch: a coarse camera places a side to a pixel",
