@@ -99,7 +99,9 @@ TEST_CASE("a layer detected with a recipe of larger cartons answers recipe_misma
   const sim::SimulatedFrame f = sim::render(testing::block_layer_scene(seed), *sim::profile_by_name("helios2"), seed);
   const std::vector<BoxFormat> right = {{0.400, 0.300, "400x300", 0.0}};
   const std::vector<BoxFormat> larger = {{0.425, 0.315, "425x315", 0.0}};
-  const Detection ok = detect(f.frame, right, DetectionParams{});
+  DetectionParams params;
+  params.layout.search.time_budget_ms = 60000.0;  // the expansion budget ends the search, as when idle
+  const Detection ok = detect(f.frame, right, params);
   INFO(ok.message);
   REQUIRE(ok.status == DetectionStatus::kOk);
   CHECK(ok.recipe_check.checked);
@@ -108,7 +110,7 @@ TEST_CASE("a layer detected with a recipe of larger cartons answers recipe_misma
     if (b.measured_long_m > 0.0) CHECK(b.measured_long_m == Approx(0.4).margin(0.02));
   }
 
-  const Detection wrong = detect(f.frame, larger, DetectionParams{});
+  const Detection wrong = detect(f.frame, larger, params);
   INFO(wrong.message);
   CHECK(wrong.status == DetectionStatus::kRecipeMismatch);
   CHECK(is_failure(wrong.status));
@@ -120,6 +122,6 @@ TEST_CASE("a layer detected with a recipe of larger cartons answers recipe_misma
   // format two of the layer's cartons make, 600 x 400 here, can tile the same outline: the sides
   // measured cannot tell it, docs/benchmarks.md "Recipe check".)
   const std::vector<RecipeCandidate> candidates = {{7, {{0.350, 0.250, "350x250", 0.0}}}, {3, right}, {9, larger}};
-  CHECK(best_fitting_recipe(f.frame, candidates, DetectionParams{}, workspace) == 3);
-  CHECK_FALSE(best_fitting_recipe(f.frame, {{9, larger}}, DetectionParams{}, workspace).has_value());
+  CHECK(best_fitting_recipe(f.frame, candidates, params, workspace) == 3);
+  CHECK_FALSE(best_fitting_recipe(f.frame, {{9, larger}}, params, workspace).has_value());
 }
