@@ -44,15 +44,19 @@ constexpr double kMaxSlotShare = 0.03;
 constexpr double kSlotMargin_m = 0.025;
 
 /// Area centroid of the layer's polygons (layer frame) [m].
+/// Mean of a piece's outer vertices (layer frame) [m].
+Eigen::Vector2d piece_centre(const PolygonWithHoles& p) {
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& v : p.outer) c += v;
+  return p.outer.empty() ? c : Eigen::Vector2d(c / static_cast<double>(p.outer.size()));
+}
+
 Eigen::Vector2d layer_centroid(const LayerResult& layer) {
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   double total = 0.0;
   for (const PolygonWithHoles& p : layer.polygons) {
     const double a = area(p);
-    Eigen::Vector2d c = Eigen::Vector2d::Zero();
-    for (const Eigen::Vector2d& v : p.outer) c += v;
-    if (!p.outer.empty()) c /= static_cast<double>(p.outer.size());
-    sum += a * c;
+    sum += a * piece_centre(p);
     total += a;
   }
   return total > 0.0 ? Eigen::Vector2d(sum / total) : Eigen::Vector2d::Zero();
@@ -157,10 +161,8 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
     a = -up;
     b_m = -std::numeric_limits<double>::max();
     for (const PolygonWithHoles& piece : layer.polygons) {
-      Eigen::Vector2d c = Eigen::Vector2d::Zero();
-      for (const Eigen::Vector2d& v : piece.outer) c += v;
       if (piece.outer.empty()) continue;
-      c /= static_cast<double>(piece.outer.size());
+      const Eigen::Vector2d c = piece_centre(piece);
       b_m = std::max(b_m, up.dot(layer.T_camera_layer * Eigen::Vector3d(c.x(), c.y(), 0.0)));
     }
     if (layer.polygons.empty()) return std::nullopt;
