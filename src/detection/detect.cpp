@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <string>
 #include <utility>
 
@@ -14,6 +13,7 @@
 #include "fattened_edges.hpp"
 #include "frame_problem.hpp"
 #include "level_checks.hpp"
+#include "level_geometry.hpp"
 #include "poses.hpp"
 #include "roi.hpp"
 #include "top_layer.hpp"
@@ -60,13 +60,6 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 /// format entered in the wrong unit (10 x 5 mm) or a layer far larger than a pallet would hold
 /// thousands and take seconds.
 constexpr double kMaxBoxesPerLayer = 600.0;
-
-/// The area of the recipe's smallest box [m2].
-double smallest_box_area_m2(const std::vector<BoxFormat>& formats) {
-  double smallest_m2 = std::numeric_limits<double>::max();
-  for (const BoxFormat& f : formats) smallest_m2 = std::min(smallest_m2, f.long_m * f.short_m);
-  return smallest_m2;
-}
 
 /// Why the layer cannot be laid out in bounded time with these formats; "" when it can.
 std::string too_many_boxes(double layer_area_m2, double smallest_box_m2) {
@@ -193,7 +186,7 @@ Detection detect(const Frame& frame, const std::vector<BoxFormat>& formats, cons
   const double cloud_ms = ms_since(t0);
 
   // Stages 1-5: plane, layer, components, crust contour; 5b: fattened tops trimmed.
-  const double smallest_box_m2 = smallest_box_area_m2(formats);
+  const double smallest_box_m2 = level_detail::min_area_m2(formats);
   out = with_layer(top_layer(frame, workspace.cloud, params, smallest_box_m2), params);
   out.timing_ms["cloud"] = cloud_ms;
   if (out.layer.status != DetectionStatus::kOk) {
@@ -236,7 +229,7 @@ Detection lay_out_layer(const Frame& frame, const std::vector<BoxFormat>& format
                         const DetectionParams& params, DetectionWorkspace& workspace,
                         const LayerEvidence* evidence, Detection out, const DetectionEnd& end) {
   const OrganizedCloud& cloud = workspace.cloud;
-  const double smallest_box_m2 = smallest_box_area_m2(formats);
+  const double smallest_box_m2 = level_detail::min_area_m2(formats);
   const std::optional<double> layer_z_m = layer_base_z_m(out.layer, frame.T_base_camera);
   // An empty pallet or a slip sheet ends the frame without boxes (and without a layout's flags).
   auto without_boxes = [&](const LevelVerdict& verdict) {

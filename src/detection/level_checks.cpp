@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -202,8 +201,7 @@ std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const 
 
 std::optional<LevelVerdict> pieces_without_boxes(const LayoutResult& layout, const LayerResult& layer,
                                                  const std::vector<BoxFormat>& formats) {
-  double smallest_m2 = std::numeric_limits<double>::max();
-  for (const BoxFormat& f : formats) smallest_m2 = std::min(smallest_m2, f.long_m * f.short_m);
+  const double smallest_m2 = level_detail::min_area_m2(formats);
   std::vector<bool> holds_box(layer.polygons.size(), false);
   for (const LayoutBox& b : layout.boxes)
     if (b.component >= 0 && static_cast<std::size_t>(b.component) < holds_box.size())

@@ -1,8 +1,9 @@
 // Helpers shared by the level checks (level_checks.cpp, empty_level.cpp): lengths in words, a
-// ring in millimetres and its smallest enclosing rectangle, the recipe's smallest sides.
+// ring in millimetres and its smallest enclosing rectangle, the recipe's smallest top and sides.
 #pragma once
 
 #include <algorithm>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -33,6 +34,13 @@ inline std::vector<cv::Point2f> points_mm(const Ring2d& ring) {
 
 /// The ring's minimum-area enclosing rectangle [mm].
 inline cv::RotatedRect min_area_rect(const Ring2d& ring) { return cv::minAreaRect(points_mm(ring)); }
+
+/// The top area of the recipe's smallest format [m2].
+inline double min_area_m2(const std::vector<BoxFormat>& formats) {
+  double a = std::numeric_limits<double>::max();
+  for (const BoxFormat& f : formats) a = std::min(a, f.long_m * f.short_m);
+  return a;
+}
 
 /// The shortest short side of the recipe's formats [m].
 inline double min_short_m(const std::vector<BoxFormat>& formats) {

@@ -118,6 +118,17 @@ static BundledRun run_bundled(const std::string& name,
   return run;
 }
 
+// A bundled frame whose layout must come out flagged, for the reason named: its run, for more checks.
+static BundledRun run_flagged(const std::string& name, const std::string& reason,
+                              const std::optional<RegionOfInterest>& roi = std::nullopt) {
+  BundledRun run = run_bundled(name, roi);
+  INFO(name);
+  REQUIRE(run.eval.status == "ok");
+  CHECK(run.eval.ambiguous);
+  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains(reason));
+  return run;
+}
+
 static void check_bundled_frames(const std::vector<std::string>& stems) {
   for (const std::string& name : stems) {
     INFO(name);
@@ -216,10 +227,8 @@ TEST_CASE("detect() keeps a box whose seam side has stray or scattered samples i
 // than a quarter of its short side, so the fit is not taken and the box keeps the search's place.
 // An unconfirmed place flags the layout (uncertain_positions).
 TEST_CASE("detect() flags a layout with a box whose fit was rejected") {
-  const BundledRun run = run_bundled("flags/brick_300x200_rejected_fit_blaze101");
-  REQUIRE(run.eval.status == "ok");
-  CHECK(run.eval.ambiguous);
-  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("would move by more than a quarter"));
+  const BundledRun run =
+      run_flagged("flags/brick_300x200_rejected_fit_blaze101", "would move by more than a quarter");
   CHECK(run.eval.flag_reason == run.detection.ambiguity_reason);  // eval rows say why they were flagged
   std::size_t rejected = 0;
   for (const DetectedBox& b : run.detection.boxes) rejected += b.score_terms.position_sigma_mm < 0.0 ? 1 : 0;
@@ -236,11 +245,9 @@ TEST_CASE("detect() flags a layout whose fitted boxes reach into each other") {
   roi.frame = RegionOfInterest::Frame::kBase;
   roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.094);
   roi.max_m = Eigen::Vector3d(0.7, 0.5, 0.844);
-  const BundledRun run = run_bundled("flags/pinwheel_315x232_oversize_crowded_o3d303-small", roi);
-  REQUIRE(run.eval.status == "ok");
+  const BundledRun run =
+      run_flagged("flags/pinwheel_315x232_oversize_crowded_o3d303-small", "overlap by", roi);
   CHECK(run.detection.boxes.size() == 11);  // one more than stand there
-  CHECK(run.eval.ambiguous);
-  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("overlap by"));
 }
 
 // palletd simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
@@ -263,11 +270,8 @@ TEST_CASE("detect() calls an empty pallet whose boards merged into strips empty,
 // wide; the outline loses the hole and a twelfth box fills it, the boxes around it moved up to
 // 45 mm. The depth seen through that box's top lies on the level below (boxes_over_holes).
 TEST_CASE("detect() flags a layout with a box over a hole the outline lost") {
-  const BundledRun run = run_bundled("flags/chimney_315x232_lost_hole_helios2");
-  REQUIRE(run.eval.status == "ok");
+  const BundledRun run = run_flagged("flags/chimney_315x232_lost_hole_helios2", "stand over a hole");
   CHECK(run.detection.boxes.size() == 12);  // one more than stand there
-  CHECK(run.eval.ambiguous);
-  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("stand over a hole"));
 }
 
 // palletd simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
@@ -275,11 +279,9 @@ TEST_CASE("detect() flags a layout with a box over a hole the outline lost") {
 // beside six others, laid out as its mirror image; the search found no other candidate, and the
 // seams of the real pinwheel cross the tops of the boxes laid out (seams_across_boxes).
 TEST_CASE("detect() flags a layout whose boxes a seen seam crosses") {
-  const BundledRun run = run_bundled("flags/pinwheel_315x232_mirrored_blaze101");
-  REQUIRE(run.eval.status == "ok");
+  const BundledRun run =
+      run_flagged("flags/pinwheel_315x232_mirrored_blaze101", "seam line across their top");
   CHECK_FALSE(run.eval.exact);
-  CHECK(run.eval.ambiguous);
-  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("seam line across their top"));
 }
 
 // palletd simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
