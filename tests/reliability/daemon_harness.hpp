@@ -4,6 +4,23 @@
 // open file descriptors from /proc, and hands out free loopback ports.
 #pragma once
 
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <catch2/catch.hpp>
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <spawn.h>
@@ -13,23 +30,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <atomic>
-#include <chrono>
-#include <condition_variable>
-#include <deque>
-#include <mutex>
-#include <csignal>
-#include <cstdio>
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
-#include <string>
-#include <thread>
-#include <vector>
-
-#include <catch2/catch.hpp>
-
 extern char** environ;
 
 namespace palletd::test {
@@ -37,16 +37,24 @@ namespace palletd::test {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
+/// A loopback port free right now, never the same one twice in this process (the kernel may hand
+/// a port that was just released out again, and a test asks for its Modbus and web ports in turn).
 inline int free_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
-  socklen_t len = sizeof addr;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-  ::close(fd);
-  return ntohs(addr.sin_port);
+  static std::mutex mutex;
+  static std::set<int> handed_out;
+  std::lock_guard<std::mutex> lock(mutex);
+  for (;;) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
+    socklen_t len = sizeof addr;
+    ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+    ::close(fd);
+    const int port = ntohs(addr.sin_port);
+    if (handed_out.insert(port).second) return port;
+  }
 }
 
 inline std::string read_text(const fs::path& path) {
@@ -246,6 +254,19 @@ struct Daemon {
     return -1;
   }
 };
+
+/// Waits for READY=1 from `daemon`; when it does not come, the daemon's log goes to stderr (ctest
+/// shows it with the failure: a port taken, a config refused, a crash) and the answer is false.
+inline bool wait_ready(NotifySocket& notify, Daemon& daemon, std::chrono::milliseconds timeout) {
+  if (notify.wait_for("READY=1", timeout)) return true;
+  const std::string text = daemon.log_text();
+  std::fprintf(
+      stderr,
+      "palletd sent no READY=1 in %lld ms (%s); notify messages:\n%s\nits log (last 3000 bytes):\n%s\n",
+      static_cast<long long>(timeout.count()), daemon.alive() ? "still running" : "exited",
+      notify.seen.c_str(), text.substr(text.size() > 3000 ? text.size() - 3000 : 0).c_str());
+  return false;
+}
 
 /// Raises this process's soft limit on open files to the hard limit; returns the new soft limit.
 inline rlim_t raise_fd_limit() {

@@ -97,7 +97,7 @@ TEST_CASE("abuse over loopback: the cap and the allow-list hold and the PLC keep
                                                  "pipeline:\n  default_recipe: 6\nlogging:\n  level: info\n");
   NotifySocket notify;
   Daemon daemon({"--config", config.string()}, notify.path, dir.path / "palletd.log");
-  REQUIRE(notify.wait_for("READY=1", scaled(10s)));
+  REQUIRE(wait_ready(notify, daemon, scaled(10s)));
   const std::size_t fds_idle = daemon.open_fds();
   PlcLoop plc(port);
   for (int i = 0; i < 200 * PALLETD_TEST_TIME_SCALE && plc.ok == 0; ++i) std::this_thread::sleep_for(50ms);

@@ -125,7 +125,7 @@ TEST_CASE("corrupted and absurd frames: a status per trigger and never a crash -
   const auto config = write_config(dir.path, replay_config(frames, port));
   NotifySocket notify;
   Daemon daemon({"--config", config.string()}, notify.path, dir.path / "palletd.log");
-  REQUIRE(notify.wait_for("READY=1", 10s));
+  REQUIRE(wait_ready(notify, daemon, 10s));
 
   PlcClient plc("127.0.0.1", port, 1);
   REQUIRE(plc.connect());
@@ -236,7 +236,7 @@ TEST_CASE("recording disk full then read-only: detection and Modbus go on - the 
   Daemon daemon({"--config", config.string()}, notify.path, dir.path / "palletd.log",
                 {"unshare", "-Urm", "sh", "-c", "mount -t tmpfs -o size=700k tmpfs \"$0\" && exec \"$@\"",
                  recordings.string()});
-  REQUIRE(notify.wait_for("READY=1", 10s));
+  REQUIRE(wait_ready(notify, daemon, 10s));
   RecordingView view{fs::path("/proc/" + std::to_string(daemon.pid) + "/root") / recordings.relative_path()};
 
   PlcClient plc("127.0.0.1", port, 1);

@@ -26,7 +26,7 @@ TEST_CASE("32 pollers at 100 Hz while the PLC triggers every 200 ms: every hands
                                                  "logging:\n  level: warn\n");
   NotifySocket notify;
   Daemon daemon({"--config", config.string()}, notify.path, dir.path / "palletd.log");
-  REQUIRE(notify.wait_for("READY=1", 10s * kTimeScale));
+  REQUIRE(wait_ready(notify, daemon, 10s * kTimeScale));
 
   LoadOptions idle;
   idle.port = port;

@@ -63,7 +63,7 @@ TEST_CASE("kill -9 under load: restarted palletd is back within a second with a 
 
   NotifySocket notify1;
   auto first = std::make_unique<Daemon>(args, notify1.path, dir.path / "palletd-1.log");
-  REQUIRE(notify1.wait_for("READY=1", scaled(10s)));
+  REQUIRE(wait_ready(notify1, *first, scaled(10s)));
 
   // Load: 8 pollers at 100 Hz for the whole test, reconnecting when the daemon goes away.
   std::atomic<bool> stop_pollers{false};
@@ -109,7 +109,7 @@ TEST_CASE("kill -9 under load: restarted palletd is back within a second with a 
   const auto t0 = Clock::now();
   NotifySocket notify2;
   Daemon second(args, notify2.path, dir.path / "palletd-2.log");
-  REQUIRE(notify2.wait_for("READY=1", scaled(5s)));
+  REQUIRE(wait_ready(notify2, second, scaled(5s)));
   const double ready_ms = ms_since(t0);
   std::unique_ptr<PlcClient> client;
   bool connected = false;

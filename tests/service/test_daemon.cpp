@@ -22,7 +22,7 @@ TEST_CASE("palletd notifies systemd, answers a trigger, survives a broken reload
                  "--web-port", std::to_string(free_port())},
                 notify.path, dir.path / "palletd.log");
 
-  REQUIRE(notify.wait_for("READY=1", 10s));
+  REQUIRE(wait_ready(notify, daemon, 10s));
   CHECK(notify.seen.find("STATUS=") != std::string::npos);
 
   palletd::modbus::PlcClient plc("127.0.0.1", port, 1);
@@ -80,7 +80,7 @@ TEST_CASE("palletd refuses to start on a taken port and says why") {
   Daemon first({"--config", std::string(PALLETD_SOURCE_DIR) + "/config/demo.yaml", "--replay", PALLETD_TEST_DATA_DIR,
                 "--port", std::to_string(port), "--web-port", web_port},
                notify.path, dir.path / "first.log");
-  REQUIRE(notify.wait_for("READY=1", 10s));
+  REQUIRE(wait_ready(notify, first, 10s));
   // Same Modbus port, a free web port: the Modbus port alone must stop it.
   Daemon second({"--config", std::string(PALLETD_SOURCE_DIR) + "/config/demo.yaml", "--replay",
                  PALLETD_TEST_DATA_DIR, "--port", std::to_string(port), "--web-port", std::to_string(free_port())},
