@@ -192,6 +192,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
     CHECK(r.reason.find("without depth") != std::string::npos);
     // The whole pipeline keeps the warning with its result.
     const Detection d = detect(f.frame, {BoxFormat{0.315, 0.232, "315x232"}}, DetectionParams{});
+    INFO("detection: " << d.message << " | " << d.ambiguity_reason);
     CHECK(d.outline_unobserved);
     CHECK(d.message.find("without depth") != std::string::npos);
     const Detection d_full = detect(full.frame, {BoxFormat{0.315, 0.232, "315x232"}}, DetectionParams{});

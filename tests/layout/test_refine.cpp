@@ -43,10 +43,10 @@ const std::vector<BoxFormat> kFormats{BoxFormat{0.4, 0.3, "400x300"}};
 /// grid packed against the outline's lower-left corner.
 Scene make_block(int cols, int rows, const std::vector<double>& gaps_x, const std::vector<double>& gaps_y,
                  double size_dev_m, double jitter_m, double yaw_dev_rad, std::mt19937& rng,
-                 const std::vector<Patch>& patches = {}, double pitch_m = 0.003) {
+                 const std::vector<Patch>& patches = {}, double pitch_m = 0.003, double built_scale = 1.0) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   Scene s;
-  const double L = 0.4, S = 0.3;
+  const double L = 0.4 * built_scale, S = 0.3 * built_scale;
   double x = 0;
   std::vector<double> xs, ys;
   for (int c = 0; c < cols; ++c) { xs.push_back(x); x += L + (c < cols - 1 ? gaps_x[static_cast<std::size_t>(c)] : 0); }
@@ -209,6 +209,34 @@ TEST_CASE("refine: an outline side far beyond the packed box is found at a coars
   CHECK(after.max_pos_m < 0.005);
 }
 
+TEST_CASE("refine: a pressed row of cartons built over their format spreads over its outline", "[refine]") {
+  // Four 400 x 300 cartons built 5 % large, pressed together, no seam seen, 15 mm pixels: the
+  // search packs four nominal boxes from one end, the last one 60 mm short of its outline side.
+  std::mt19937 rng(41);
+  const Scene s = make_block(4, 1, {0.0, 0.0, 0.0}, {}, 0.0, 0.0, 0.0, rng, {}, 0.012, 1.05);
+  const Errors before = errors(s, s.found);
+  const LayoutResult refined = refine_layout(s.found, s.layer, kFormats, nullptr, LayoutParams{});
+  const Errors after = errors(s, refined);
+  INFO("before " << before.max_pos_m * 1000 << " mm, after " << after.max_pos_m * 1000 << " mm");
+  CHECK(before.max_pos_m > 0.05);
+  CHECK(after.max_pos_m < 0.008);
+}
+
+TEST_CASE("refine: a gap the fit opens where the points show carton top closes", "[refine]") {
+  // The same row, the search's last box at the outline's far end: 60 mm between boxes 2 and 3
+  // that no seam and no missing point shows. The pair is pressed; the row's sizes grow instead.
+  std::mt19937 rng(43);
+  Scene s = make_block(4, 1, {0.0, 0.0, 0.0}, {}, 0.0, 0.0, 0.0, rng, {}, 0.012, 1.05);
+  s.found.boxes[3].center.x() = s.truth[3].center.x() + 0.5 * (s.truth[3].long_m - kFormats[0].long_m);
+  const Errors before = errors(s, s.found);
+  const LayoutResult refined = refine_layout(s.found, s.layer, kFormats, nullptr, LayoutParams{});
+  const Errors after = errors(s, refined);
+  INFO("before " << before.max_pos_m * 1000 << " mm, after " << after.max_pos_m * 1000 << " mm");
+  CHECK(before.max_pos_m > 0.04);
+  CHECK(after.max_pos_m < 0.008);
+  for (const LayoutBox& b : refined.boxes) CHECK(b.long_m > 0.41);
+}
+
 TEST_CASE("refine: boxes pressed together (no seam) touch their neighbour at nominal size", "[refine]") {
   std::mt19937 rng(3);
   // Columns 0 and 1 pressed together, a 12 mm seam after column 1; sizes exactly nominal.
@@ -287,6 +315,26 @@ TEST_CASE("refine: joint solve chains a pressed row to its measured ends", "[ref
   CHECK(boxes[1].center.x() == Approx(0.603).margin(0.0005));
   CHECK(boxes[2].center.x() == Approx(1.003).margin(0.0005));
   CHECK(boxes[1].half.x() == Approx(0.2).margin(0.0005));
+}
+
+TEST_CASE("refine: joint solve sizes a turned carton like its batch measured along the other axis",
+          "[refine]") {
+  using namespace layout_detail;
+  // Box 0 stands with its short side along y, both y sides measured: 318 mm. Box 1 is turned
+  // (short side along x) with only its left side seen. The batch's short side is 318 mm, so
+  // box 1's centre lies 159 mm from its left side, not the nominal 150.
+  std::vector<JointBox> boxes(2);
+  boxes[0].center = Eigen::Vector2d(0.2, 0.15);
+  boxes[0].half = boxes[0].half_nominal = Eigen::Vector2d(0.2, 0.15);
+  boxes[1].center = Eigen::Vector2d(0.6, 0.2);
+  boxes[1].half = boxes[1].half_nominal = Eigen::Vector2d(0.15, 0.2);
+  const std::vector<SideObservation> sides{
+      {0, 1, -1, -0.009, 0.0005}, {0, 1, 1, 0.309, 0.0005}, {0, 0, -1, 0.0, 0.0005}, {0, 0, 1, 0.4, 0.0005},
+      {1, 0, -1, 0.45, 0.0005},   {1, 1, -1, 0.0, 0.0005},  {1, 1, 1, 0.4, 0.0005}};
+  solve_joint(boxes, sides, {}, JointParams{});
+  CHECK(boxes[0].half.y() == Approx(0.159).margin(0.0005));
+  CHECK(boxes[1].half.x() == Approx(0.159).margin(0.001));
+  CHECK(boxes[1].center.x() == Approx(0.609).margin(0.001));
 }
 
 TEST_CASE("refine: joint solve keeps solid neighbours from overlapping", "[refine]") {

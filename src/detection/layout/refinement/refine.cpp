@@ -2,7 +2,9 @@
 // side is measured where the evidence is: a side on the outline from the box's own layer points
 // (walked outward to the first gap), a side shared with a neighbour from the seam raster (the
 // box's own edge of the seam band, depth or intensity); every side is a robust line fit
-// (refine_joint.cpp). Sides with a neighbour but no visible seam make the two boxes touch.
+// (refine_joint.cpp). Sides with a neighbour but no visible seam make the two boxes touch; so do
+// boxes the fit leaves apart where the layer's points show carton top (rows.cpp), and the boxes
+// start spread over their outline's extent (cartons larger than their format, rows.cpp).
 // Centres and sizes of all boxes are then one least-squares fit with the nominal format as a
 // prior on each size (sizes stay within the tolerance); the per-box yaw follows the fitted
 // side slopes. Where an edge lies within the pixel footprint depends on whether the side faces
@@ -25,6 +27,20 @@ namespace {
 
 /// Layer points are binned in cells of this size for the boxes' neighbourhood queries [m].
 constexpr double kGridCell_m = 0.05;
+/// How far a box side is looked for beyond where the search put it: cartons run up to 6 % over
+/// their format and stand with gaps up to 20 mm that the search packs shut; the search's
+/// placement, spread over the outline, leaves the sides of a row of such cartons up to a few
+/// centimetres from where they stand [m].
+constexpr double kSideWindow_m = 0.06;
+constexpr double kSideWindowIn_m = 0.03;
+
+/// The shortest side of the formats (the window stays under half of it) [m].
+double smallest_side_m(const std::vector<BoxFormat>& formats) {
+  double s = 1.0;
+  for (const BoxFormat& f : formats) s = std::min(s, f.short_m);
+  return s;
+}
+
 /// A box's yaw changes by at most this through the refinement [rad].
 const double kMaxYawChange_rad = 5.0 * M_PI / 180.0;
 
@@ -95,9 +111,15 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
   RefineContext ctx{layer, formats, params, use_seams ? seams : nullptr, surroundings, rim, grid};
   ctx.pitch_m =
       layer.points_2d.empty() ? 0.003 : std::sqrt(layer_area / static_cast<double>(layer.points_2d.size()));
-  // How far a side may lie from where the search put it: the search packs nominal boxes
-  // without gaps, so interior sides are off by the gaps and size deviations accumulated.
-  ctx.window_m = std::max(0.03, 2.5 * params.seams.margin_m);
+  // How far a side may lie from where the search put it (its boxes spread over the outline's
+  // extent first: stretch_to_outline): the search packs nominal boxes without gaps, so sides are
+  // off by the gaps and size deviations accumulated along a row; less than half the smallest
+  // carton side, so that a side is not taken for its neighbour's far one.
+  ctx.window_m =
+      std::max(std::min(kSideWindow_m, 0.4 * smallest_side_m(formats)), 2.5 * params.seams.margin_m);
+  // Inward, a side lies at most by the gaps around it and a carton's shortfall from where the
+  // search put it: looking further in takes a label's or a neighbour's seam band for it.
+  ctx.window_in_m = std::max(kSideWindowIn_m, 2.5 * params.seams.margin_m);
   // The camera in the layer frame: which box sides face it decides where an edge lies within
   // the pixel footprint (refine_joint.hpp). Unknown (no camera above the plane): no correction.
   ctx.camera_layer = layer.T_camera_layer.inverse().translation();

@@ -5,9 +5,10 @@
 #include <array>
 #include <cmath>
 
-#include "refinement/refine_internal.hpp"
 #include "refinement/measured_sizes.hpp"
+#include "refinement/refine_internal.hpp"
 #include "refinement/refine_joint.hpp"
+#include "refinement/rows.hpp"
 #include "refinement/side_samples.hpp"
 
 namespace palletd::layout_detail {
@@ -28,15 +29,6 @@ const double kMaxSideSlope = std::tan(5.0 * M_PI / 180.0);
 
 /// A fit that moves a box by more than this share of its short side took the wrong evidence.
 constexpr double kMaxShiftShare = 0.25;
-
-/// A box's evidence in the component frame.
-struct BoxEvidence {
-  JointBox jb;
-  bool along_x = true;                  ///< its long side along the frame's x
-  double pitch_m = 0.0;                 ///< pixel pitch on its top
-  std::vector<Eigen::Vector2d> points;  ///< layer points around it
-  std::vector<Eigen::Vector3d> rim;     ///< rim pixels around it: (x, y) in the frame, top share
-};
 
 /// A side's turn of its box and 1 / variance.
 struct SideTurn {
@@ -64,11 +56,13 @@ ComponentFit component_frame(double first_yaw_rad, const PolygonWithHoles& polyg
   return cf;
 }
 
-/// Each box's nominal and current extent in the frame and the layer points and rim pixels
-/// around it; a box with enough points inside gets the pitch measured on its own top.
+/// Each box's nominal and current extent in the frame (its centre stretched to the outline) and
+/// the layer points and rim pixels around it; a box with enough points inside gets the pitch
+/// measured on its own top.
 std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
                                          const std::vector<LayoutBox>& boxes, const ComponentFit& cf,
                                          const RefineContext& ctx) {
+  const Stretch stretch = stretch_to_outline(idx, boxes, cf, ctx);
   std::vector<Eigen::Vector3d> rim_frame;  // the whole rim in this component's frame
   if (ctx.rim != nullptr) {
     rim_frame.reserve(ctx.rim->size());
@@ -84,7 +78,7 @@ std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
     BoxEvidence& e = ev[k];
     e.pitch_m = ctx.pitch_m;
     e.along_x = std::abs(std::remainder(box.yaw_rad - cf.frame.theta_rad, M_PI)) < M_PI / 4;
-    e.jb.center = cf.frame.to_frame(box.center);
+    e.jb.center = stretch.scale.cwiseProduct(cf.frame.to_frame(box.center)) + stretch.offset;
     double nl = box.long_m, ns = box.short_m;
     if (box.format >= 0 && static_cast<std::size_t>(box.format) < ctx.formats.size()) {
       nl = ctx.formats[static_cast<std::size_t>(box.format)].long_m;
@@ -101,8 +95,9 @@ std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
     const double c = std::abs(std::cos(cf.frame.theta_rad)), s = std::abs(std::sin(cf.frame.theta_rad));
     const double reach_x = c * a_x + s * a_y + 1e-6, reach_y = s * a_x + c * a_y + 1e-6;
     std::size_t inside = 0;
-    ctx.grid.visit(box.center.x() - reach_x, box.center.y() - reach_y, box.center.x() + reach_x,
-                   box.center.y() + reach_y, [&](const Eigen::Vector2f& p) {
+    const Eigen::Vector2d at = cf.frame.to_layer(e.jb.center);
+    ctx.grid.visit(at.x() - reach_x, at.y() - reach_y, at.x() + reach_x, at.y() + reach_y,
+                   [&](const Eigen::Vector2f& p) {
                      const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(p.cast<double>()));
                      const Eigen::Vector2d d = (q - e.jb.center).cwiseAbs();
                      if (d.x() > e.jb.half.x() + collect || d.y() > e.jb.half.y() + collect) return;
@@ -186,7 +181,7 @@ SideResult measure_side(const BoxEvidence& e, std::size_t k, int axis, int sign,
   const double lp = e.pitch_m;
   const SideRef s = side_of(e.jb, axis, sign, m);
   if (s.hi <= s.lo) return r;
-  const double win_in = std::min(ctx.window_m, 0.4 * e.jb.half[axis]);
+  const double win_in = std::min(ctx.window_in_m, 0.4 * e.jb.half[axis]);
   const double a0 = s.pos + sign * m, a1 = s.pos + sign * 3 * m;
   const Rect beyond = axis == 0 ? Rect{std::min(a0, a1), s.lo, std::max(a0, a1), s.hi}
                                 : Rect{s.lo, std::min(a0, a1), s.hi, std::max(a0, a1)};
@@ -361,6 +356,14 @@ ComponentFit fit_component(const std::vector<std::size_t>& idx, const PolygonWit
   jp.size_sigma_m = ctx.params.refine.size_tolerance_m / 2;
   jp.max_oversize = ctx.params.refine.max_oversize;
   solve_joint(fitted, sides, contacts, jp, neighbours);
+  // A gap the fit opened where the layer's points show carton top: the pair touches, fitted again.
+  const std::vector<Contact> filled =
+      filled_gaps(ev, fitted, contacts, ctx.params.seams.margin_m, ctx.window_m + 4.0 * ctx.pitch_m);
+  if (!filled.empty()) {
+    contacts.insert(contacts.end(), filled.begin(), filled.end());
+    for (std::size_t k = 0; k < n; ++k) fitted[k] = ev[k].jb;
+    solve_joint(fitted, sides, contacts, jp, neighbours);
+  }
   const std::vector<double> own_turn = component_turns(turns, n, w_prior, cf);
   for (std::size_t k = 0; k < n; ++k) {
     Box2d& box = boxes[idx[k]];

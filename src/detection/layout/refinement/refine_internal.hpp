@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "layout_internal.hpp"
+#include "refinement/refine_joint.hpp"
 
 namespace palletd::layout_detail {
 
@@ -51,9 +52,19 @@ struct RefineContext {
   const std::vector<RimPixel>* rim = nullptr;
   const PointGrid& grid;  ///< the layer points
   double pitch_m = 0.0;   ///< mean pixel pitch on the layer
-  double window_m = 0.0;  ///< how far a side may lie from where the search put it
+  double window_m = 0.0;  ///< how far beyond where the search put it a side may lie
+  double window_in_m = 0.0;  ///< how far inside it (a box's size is at most a little under nominal)
   Eigen::Vector3d camera_layer = Eigen::Vector3d::Zero();  ///< the camera in the layer frame
   bool view_known = false;  ///< the camera is above the plane (footprint corrections apply)
+};
+
+/// A box's evidence in the component frame (refine_component.cpp gathers it).
+struct BoxEvidence {
+  JointBox jb;
+  bool along_x = true;                  ///< its long side along the frame's x
+  double pitch_m = 0.0;                 ///< pixel pitch on its top
+  std::vector<Eigen::Vector2d> points;  ///< layer points around it
+  std::vector<Eigen::Vector3d> rim;     ///< rim pixels around it: (x, y) in the frame, top share
 };
 
 /// A component's refinement: its layout frame and measured turn.

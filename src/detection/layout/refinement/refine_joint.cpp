@@ -173,8 +173,10 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
       const auto ui = static_cast<std::size_t>(i);
       A(i, i) += c_anchor;
       rhs(i) += c_anchor * c0[ui];
+      const double prior =
+          boxes[ui].half_prior[axis] > 0.0 ? boxes[ui].half_prior[axis] : boxes[ui].half_nominal[axis];
       const double hw = held[ui] ? c_held : c_size_of(boxes[ui].half_nominal[axis]);
-      const double hv = held[ui] ? held_half[ui] : boxes[ui].half_nominal[axis];
+      const double hv = held[ui] ? held_half[ui] : prior;
       A(n + i, n + i) += hw;
       rhs(n + i) += hw * hv;
     }
@@ -251,7 +253,37 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
   const Eigen::MatrixXd cov = A.ldlt().solve(Eigen::MatrixXd::Identity(2 * n, 2 * n));
   for (Eigen::Index i = 0; i < n; ++i) {
     boxes[static_cast<std::size_t>(i)].sigma_center[axis] = std::sqrt(std::max(0.0, cov(i, i)));
+    boxes[static_cast<std::size_t>(i)].sigma_half[axis] = std::sqrt(std::max(0.0, cov(n + i, n + i)));
   }
+}
+
+/// The batch's half size for each nominal half size, from the first pass's fitted halves along
+/// both axes that the frame measured (sigma under half the prior's; inverse-variance mean):
+/// pairs (nominal, batch). A nominal size no box measured has none.
+std::vector<std::pair<double, double>> batch_halves(const std::vector<JointBox>& fitted,
+                                                    const JointParams& params) {
+  std::vector<std::pair<double, double>> out;
+  std::vector<std::pair<double, double>> sums;  // (sum w h, sum w) per entry of out
+  for (const JointBox& b : fitted) {
+    for (int a = 0; a < 2; ++a) {
+      const double nominal = b.half_nominal[a];
+      const double prior_sigma = std::max(0.5 * params.size_sigma_m, 0.5 * params.max_oversize * nominal);
+      const double sigma = b.sigma_half[a];
+      if (!(sigma > 0.0) || sigma > 0.5 * prior_sigma) continue;
+      const auto it = std::find_if(out.begin(), out.end(),
+                                   [&](const auto& e) { return std::abs(e.first - nominal) < 1e-6; });
+      const std::size_t k = it == out.end() ? out.size() : static_cast<std::size_t>(it - out.begin());
+      if (it == out.end()) {
+        out.emplace_back(nominal, 0.0);
+        sums.emplace_back(0.0, 0.0);
+      }
+      const double w = 1.0 / (sigma * sigma);
+      sums[k].first += w * b.half[a];
+      sums[k].second += w;
+    }
+  }
+  for (std::size_t k = 0; k < out.size(); ++k) out[k].second = sums[k].first / sums[k].second;
+  return out;
 }
 
 }  // namespace
@@ -259,8 +291,21 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
 void solve_joint(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
                  const std::vector<Contact>& contacts, const JointParams& params,
                  const std::vector<Contact>& neighbours) {
+  const std::vector<JointBox> start = boxes;
   solve_axis(boxes, sides, contacts, neighbours, params, 0);
   solve_axis(boxes, sides, contacts, neighbours, params, 1);
+  const std::vector<std::pair<double, double>> batch = batch_halves(boxes, params);
+  if (batch.empty()) return;
+  std::vector<JointBox> second = start;
+  for (JointBox& b : second) {
+    for (int a = 0; a < 2; ++a) {
+      for (const auto& [nominal, half] : batch)
+        if (std::abs(b.half_nominal[a] - nominal) < 1e-6) b.half_prior[a] = half;
+    }
+  }
+  solve_axis(second, sides, contacts, neighbours, params, 0);
+  solve_axis(second, sides, contacts, neighbours, params, 1);
+  boxes = std::move(second);
 }
 
 }  // namespace palletd::layout_detail

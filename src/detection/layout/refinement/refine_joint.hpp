@@ -36,6 +36,11 @@ struct JointBox {
   Eigen::Vector2d half_nominal = Eigen::Vector2d::Zero();  ///< nominal format, same axes [m]
   /// Standard deviation of the fitted centre along frame x, y (solve_joint's output) [m]
   Eigen::Vector2d sigma_center = Eigen::Vector2d::Zero();
+  /// Standard deviation of the fitted half size along frame x, y (solve_joint's output) [m]
+  Eigen::Vector2d sigma_half = Eigen::Vector2d::Zero();
+  /// Where the size prior is centred along frame x, y; 0 = half_nominal (solve_joint sets it to
+  /// the batch's size for its second pass) [m]
+  Eigen::Vector2d half_prior = Eigen::Vector2d::Zero();
 };
 
 /// A measured box side: the side of box `box` normal to `axis` (0: frame x) on side `sign`
@@ -92,6 +97,9 @@ struct JointParams {
 /// clamped to the tolerance and the fit repeated with clamped sizes held). `neighbours` are
 /// facing sides of adjacent boxes (same layout as Contact): boxes are solid, so where the fit
 /// makes such a pair overlap, the pair is made to touch instead and the fit repeated.
+/// The axes are fitted one after the other, each with its own batch ties; a carton's side of one
+/// nominal length stands along x in some boxes and along y in others (an interlock, a pinwheel),
+/// so a second pass centres every size prior on the batch's size measured along both axes.
 void solve_joint(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
                  const std::vector<Contact>& contacts, const JointParams& params,
                  const std::vector<Contact>& neighbours = {});
