@@ -143,6 +143,12 @@ void add_batch_ties(const std::vector<JointBox>& boxes, int axis, const JointPar
   }
 }
 
+/// The prior's spread of a half side around its nominal: size_sigma_m, or wider for long sides,
+/// which run up to max_oversize over their format (half the oversize as one sigma) [m].
+double half_size_prior_sigma_m(double half_nominal_m, const JointParams& params) {
+  return std::max(0.5 * params.size_sigma_m, 0.5 * params.max_oversize * half_nominal_m);
+}
+
 /// One axis of the joint fit: unknowns c_0..c_{n-1}, h_0..h_{n-1} (centre and half size).
 void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>& sides,
                 const std::vector<Contact>& contacts, const std::vector<Contact>& neighbours,
@@ -154,10 +160,8 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
   std::vector<bool> held(boxes.size(), false);
   std::vector<double> held_half(boxes.size(), 0.0);
   const double c_anchor = 1.0 / (params.anchor_sigma_m * params.anchor_sigma_m);
-  // The prior on a side length around nominal: size_sigma_m, or wider for long sides, which run
-  // up to max_oversize over their format (half the oversize as one sigma).
   auto c_size_of = [&](double half_nominal_m) {
-    const double half_sigma = std::max(0.5 * params.size_sigma_m, 0.5 * params.max_oversize * half_nominal_m);
+    const double half_sigma = half_size_prior_sigma_m(half_nominal_m, params);
     return 1.0 / (half_sigma * half_sigma);
   };
   const double c_held = 1e12;
@@ -267,7 +271,7 @@ std::vector<std::pair<double, double>> batch_halves(const std::vector<JointBox>&
   for (const JointBox& b : fitted) {
     for (int a = 0; a < 2; ++a) {
       const double nominal = b.half_nominal[a];
-      const double prior_sigma = std::max(0.5 * params.size_sigma_m, 0.5 * params.max_oversize * nominal);
+      const double prior_sigma = half_size_prior_sigma_m(nominal, params);
       const double sigma = b.sigma_half[a];
       if (!(sigma > 0.0) || sigma > 0.5 * prior_sigma) continue;
       const auto it = std::find_if(out.begin(), out.end(),
