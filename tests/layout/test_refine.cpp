@@ -209,24 +209,27 @@ TEST_CASE("refine: an outline side far beyond the packed box is found at a coars
   CHECK(after.max_pos_m < 0.005);
 }
 
+/// Four 400 x 300 cartons built 5 % large in a row, pressed together, 12 mm pixels; the search's
+/// nominal boxes packed from the row's first end.
+static Scene oversize_row(unsigned seed) {
+  std::mt19937 rng(seed);
+  return make_block(4, 1, {0.0, 0.0, 0.0}, {}, 0.0, 0.0, 0.0, rng, {}, 0.012, 1.05);
+}
+
 TEST_CASE("refine: a pressed row of cartons built over their format spreads over its outline", "[refine]") {
-  // Four 400 x 300 cartons built 5 % large, pressed together, no seam seen, 15 mm pixels: the
-  // search packs four nominal boxes from one end, the last one 60 mm short of its outline side.
-  std::mt19937 rng(41);
-  const Scene s = make_block(4, 1, {0.0, 0.0, 0.0}, {}, 0.0, 0.0, 0.0, rng, {}, 0.012, 1.05);
+  // No seam seen: the search's last box lies 60 mm short of its outline side.
+  const Scene s = oversize_row(41);
   const Errors before = errors(s, s.found);
-  const LayoutResult refined = refine_layout(s.found, s.layer, kFormats, nullptr, LayoutParams{});
-  const Errors after = errors(s, refined);
+  const Errors after = errors(s, refine_layout(s.found, s.layer, kFormats, nullptr, LayoutParams{}));
   INFO("before " << before.max_pos_m * 1000 << " mm, after " << after.max_pos_m * 1000 << " mm");
   CHECK(before.max_pos_m > 0.05);
   CHECK(after.max_pos_m < 0.008);
 }
 
 TEST_CASE("refine: a gap the fit opens where the points show carton top closes", "[refine]") {
-  // The same row, the search's last box at the outline's far end: 60 mm between boxes 2 and 3
-  // that no seam and no missing point shows. The pair is pressed; the row's sizes grow instead.
-  std::mt19937 rng(43);
-  Scene s = make_block(4, 1, {0.0, 0.0, 0.0}, {}, 0.0, 0.0, 0.0, rng, {}, 0.012, 1.05);
+  // The search's last box at the outline's far end: 60 mm between boxes 2 and 3 that no seam and
+  // no missing point shows. The pair is pressed; the row's sizes grow instead.
+  Scene s = oversize_row(43);
   s.found.boxes[3].center.x() = s.truth[3].center.x() + 0.5 * (s.truth[3].long_m - kFormats[0].long_m);
   const Errors before = errors(s, s.found);
   const LayoutResult refined = refine_layout(s.found, s.layer, kFormats, nullptr, LayoutParams{});

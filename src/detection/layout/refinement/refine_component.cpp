@@ -56,13 +56,35 @@ ComponentFit component_frame(double first_yaw_rad, const PolygonWithHoles& polyg
   return cf;
 }
 
-/// Each box's nominal and current extent in the frame (its centre stretched to the outline) and
-/// the layer points and rim pixels around it; a box with enough points inside gets the pitch
-/// measured on its own top.
+/// Each box's nominal and current extent in the frame, where the search put it.
+std::vector<BoxEvidence> boxes_in_frame(const std::vector<std::size_t>& idx, const std::vector<LayoutBox>& boxes,
+                                        const ComponentFit& cf, const RefineContext& ctx) {
+  std::vector<BoxEvidence> ev(idx.size());
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    const Box2d& box = boxes[idx[k]];
+    BoxEvidence& e = ev[k];
+    e.pitch_m = ctx.pitch_m;
+    e.along_x = std::abs(std::remainder(box.yaw_rad - cf.frame.theta_rad, M_PI)) < M_PI / 4;
+    e.jb.center = cf.frame.to_frame(box.center);
+    double nl = box.long_m, ns = box.short_m;
+    if (box.format >= 0 && static_cast<std::size_t>(box.format) < ctx.formats.size()) {
+      nl = ctx.formats[static_cast<std::size_t>(box.format)].long_m;
+      ns = ctx.formats[static_cast<std::size_t>(box.format)].short_m;
+    }
+    e.jb.half = e.along_x ? Eigen::Vector2d(box.long_m / 2, box.short_m / 2)
+                          : Eigen::Vector2d(box.short_m / 2, box.long_m / 2);
+    e.jb.half_nominal = e.along_x ? Eigen::Vector2d(nl / 2, ns / 2) : Eigen::Vector2d(ns / 2, nl / 2);
+  }
+  return ev;
+}
+
+/// Each box's extent in the frame (its centre stretched to the outline) and the layer points and
+/// rim pixels around it; a box with enough points inside gets the pitch measured on its own top.
 std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
                                          const std::vector<LayoutBox>& boxes, const ComponentFit& cf,
                                          const RefineContext& ctx) {
-  const Stretch stretch = stretch_to_outline(idx, boxes, cf, ctx);
+  std::vector<BoxEvidence> ev = boxes_in_frame(idx, boxes, cf, ctx);
+  stretch_to_outline(bounds_of(cf.polygon), ctx.window_m, ctx.params.refine.max_oversize, ev);
   std::vector<Eigen::Vector3d> rim_frame;  // the whole rim in this component's frame
   if (ctx.rim != nullptr) {
     rim_frame.reserve(ctx.rim->size());
@@ -72,23 +94,9 @@ std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
     }
   }
   const double window = ctx.window_m;
-  std::vector<BoxEvidence> ev(idx.size());
-  for (std::size_t k = 0; k < idx.size(); ++k) {
-    const Box2d& box = boxes[idx[k]];
-    BoxEvidence& e = ev[k];
-    e.pitch_m = ctx.pitch_m;
-    e.along_x = std::abs(std::remainder(box.yaw_rad - cf.frame.theta_rad, M_PI)) < M_PI / 4;
-    e.jb.center = stretch.scale.cwiseProduct(cf.frame.to_frame(box.center)) + stretch.offset;
-    double nl = box.long_m, ns = box.short_m;
-    if (box.format >= 0 && static_cast<std::size_t>(box.format) < ctx.formats.size()) {
-      nl = ctx.formats[static_cast<std::size_t>(box.format)].long_m;
-      ns = ctx.formats[static_cast<std::size_t>(box.format)].short_m;
-    }
-    e.jb.half = e.along_x ? Eigen::Vector2d(box.long_m / 2, box.short_m / 2)
-                          : Eigen::Vector2d(box.short_m / 2, box.long_m / 2);
-    e.jb.half_nominal = e.along_x ? Eigen::Vector2d(nl / 2, ns / 2) : Eigen::Vector2d(ns / 2, nl / 2);
-    // Points a gap beyond the window: an outline edge is seen where its points end.
-    const double collect = window + 5.0 * ctx.pitch_m;
+  // Points a gap beyond the window: an outline edge is seen where its points end.
+  const double collect = window + 5.0 * ctx.pitch_m;
+  for (BoxEvidence& e : ev) {
     // The layer-frame bounds of the collected rectangle (turned by the frame's theta); 1 um more
     // for the rounding of the frame's transform.
     const double a_x = e.jb.half.x() + collect, a_y = e.jb.half.y() + collect;

@@ -6,31 +6,24 @@
 
 namespace palletd::layout_detail {
 
-Stretch stretch_to_outline(const std::vector<std::size_t>& idx, const std::vector<LayoutBox>& boxes,
-                           const ComponentFit& cf, const RefineContext& ctx) {
+void stretch_to_outline(const Rect& outline, double window_m, double max_oversize, std::vector<BoxEvidence>& ev) {
   constexpr double kGapShare = 0.03;  // gaps a row of cartons may stand with, beyond their growth
-  Stretch st;
-  const Rect outline = bounds_of(cf.polygon);
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e300), hi = Eigen::Vector2d::Constant(-1e300);
-  for (std::size_t i : idx) {
-    const Box2d& box = boxes[i];
-    const Eigen::Vector2d c = cf.frame.to_frame(box.center);
-    const bool along_x = std::abs(std::remainder(box.yaw_rad - cf.frame.theta_rad, M_PI)) < M_PI / 4;
-    const Eigen::Vector2d half = along_x ? Eigen::Vector2d(box.long_m / 2, box.short_m / 2)
-                                         : Eigen::Vector2d(box.short_m / 2, box.long_m / 2);
-    lo = lo.cwiseMin(c - half);
-    hi = hi.cwiseMax(c + half);
+  for (const BoxEvidence& e : ev) {
+    lo = lo.cwiseMin(e.jb.center - e.jb.half);
+    hi = hi.cwiseMax(e.jb.center + e.jb.half);
   }
+  Eigen::Vector2d scale = Eigen::Vector2d::Ones(), offset = Eigen::Vector2d::Zero();
   const Eigen::Vector2d out_lo(outline.x0, outline.y0), out_hi(outline.x1, outline.y1);
   for (int a = 0; a < 2; ++a) {
     const double boxes_m = hi[a] - lo[a], outline_m = out_hi[a] - out_lo[a];
-    if (!(boxes_m > 0.0) || outline_m - boxes_m < 0.5 * ctx.window_m ||
-        outline_m > boxes_m * (1.0 + ctx.params.refine.max_oversize + kGapShare))
+    if (!(boxes_m > 0.0) || outline_m - boxes_m < 0.5 * window_m ||
+        outline_m > boxes_m * (1.0 + max_oversize + kGapShare))
       continue;
-    st.scale[a] = outline_m / boxes_m;
-    st.offset[a] = out_lo[a] - st.scale[a] * lo[a];
+    scale[a] = outline_m / boxes_m;
+    offset[a] = out_lo[a] - scale[a] * lo[a];
   }
-  return st;
+  for (BoxEvidence& e : ev) e.jb.center = scale.cwiseProduct(e.jb.center) + offset;
 }
 
 std::vector<Contact> filled_gaps(const std::vector<BoxEvidence>& ev, const std::vector<JointBox>& fitted,

@@ -12,20 +12,14 @@
 
 namespace palletd::layout_detail {
 
-/// Where the search's boxes start the fit, per frame axis: x' = scale * x + offset.
-struct Stretch {
-  Eigen::Vector2d scale = Eigen::Vector2d::Ones(), offset = Eigen::Vector2d::Zero();
-};
-
 /// The search packs boxes of the nominal format from one side of the outline; real cartons are
 /// built up to max_oversize over it and stand with gaps, so along a row of n cartons the far ones
 /// lie up to n times that from where the search put them, beyond the window their sides are
-/// looked for in. Where the boxes `idx` together span less of the component than its outline
-/// does (by more than half the window, and by no more than cartons of max_oversize plus 3 % of
-/// gaps: a larger shortfall is a box missing, not grown ones), their centres start spread over
-/// the outline's extent along that axis.
-Stretch stretch_to_outline(const std::vector<std::size_t>& idx, const std::vector<LayoutBox>& boxes,
-                           const ComponentFit& cf, const RefineContext& ctx);
+/// looked for in. Where the boxes `ev` (in the component's frame) together span less of the
+/// component than its `outline` bounds do (by more than half the window, and by no more than
+/// cartons of max_oversize plus 3 % of gaps: a larger shortfall is a box missing, not grown ones),
+/// their centres are spread over the outline's extent along that axis.
+void stretch_to_outline(const Rect& outline, double window_m, double max_oversize, std::vector<BoxEvidence>& ev);
 
 /// Boxes the fit leaves apart by a gap the layer's points fill: the depth shows carton top where
 /// the fit puts a gap wider than two pixels (the search packed nominal boxes from both ends of a
