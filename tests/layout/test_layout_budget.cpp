@@ -1,14 +1,16 @@
 // The deterministic search budget, footprint moves decided by the seams (mixed formats), and
 // the box-side walk shared by the seam scorers.
-#include <catch2/catch.hpp>
-
 #include <algorithm>
 #include <limits>
 
+#include <catch2/catch.hpp>
+
+#include "palletd/detection/layout.hpp"
+
+#include "evidence/seam_likelihood.hpp"
+#include "frame_boxes.hpp"
 #include "layout_fixtures.hpp"
 #include "layout_internal.hpp"
-#include "palletd/detection/layout.hpp"
-#include "evidence/seam_likelihood.hpp"
 
 using namespace palletd;
 using namespace palletd::layout_test;
@@ -35,17 +37,6 @@ KnownLayout mixed_rows() {
              {0.0, 0.3, 1, false}, {0.2, 0.3, 1, false}, {0.4, 0.3, 0, true}, {0.8, 0.3, 1, false},
              {1.0, 0.3, 1, false}};
   return l;
-}
-
-/// A known layout's boxes as frame boxes (the layout frame is the layout's own).
-std::vector<FrameBox> frame_boxes(const KnownLayout& k) {
-  std::vector<FrameBox> out;
-  for (const TruthBox& b : k.boxes) {
-    const BoxFormat& f = k.formats[static_cast<std::size_t>(b.format)];
-    const double w = b.long_along_x ? f.long_m : f.short_m, h = b.long_along_x ? f.short_m : f.long_m;
-    out.push_back({Rect{b.x0, b.y0, b.x0 + w, b.y0 + h}, b.format, b.long_along_x});
-  }
-  return out;
 }
 
 }  // namespace

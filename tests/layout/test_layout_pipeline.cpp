@@ -170,6 +170,22 @@ TEST_CASE("detect() places rows of cartons larger than their format exactly") {
                         "oversize/interlock_400x300_oversize_o3d303-small"});
 }
 
+// Cartons pressed where the camera shows no seam between them, taped along their flaps: the band
+// of tape along a carton's middle says which way it lies and where its middle is. Before the tape
+// counted, each came out right but flagged ("another arrangement ... nearly as well"; the d435
+// frame wrong as well): a 600 x 400 or two 400 x 300 in its place, a chimney's mirror image.
+// tape/mixed_600x400_400x300_tape_blaze101: `palletctl simulate -n 60 --pattern all --profile
+// helios2 blaze101 xtion d435 --extra-format 500x350 --oversize-max 0.03 --corner-radius 3:8
+// --gap-max 20 --seed 90862`, frame 53; tape/stepped_mixed_600x400_400x300_tape_d435: `palletctl
+// simulate -n 300 --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
+// --gap-max 20 --seed 90865`, frame 197; tape/chimney_315x232_tape_helios2: `palletctl simulate -n
+// 360 --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8 --gap-max 20
+// --seed 90893`, frame 262.
+TEST_CASE("detect() reads which way pressed cartons lie from the tape along their flaps") {
+  check_bundled_frames({"tape/mixed_600x400_400x300_tape_blaze101",
+                        "tape/stepped_mixed_600x400_400x300_tape_d435", "tape/chimney_315x232_tape_helios2"});
+}
+
 TEST_CASE("detect() resolves the bundled pinwheel's chirality from its seams") {
   check_bundled_frames({"06_pinwheel_315x232_o3d303"});
 }

@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "palletd/detection/layout.hpp"
+
 #include "evidence/layout_scoring.hpp"
+#include "evidence/tape.hpp"
 #include "layer_raster.hpp"
 #include "layout_internal.hpp"
-#include "palletd/detection/layout.hpp"
 
 namespace palletd {
 
@@ -58,8 +60,11 @@ void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const st
   for (LayoutBox& b : boxes) {
     const auto fa = static_cast<std::size_t>(b.format);
     if (fa >= formats.size() || b.component < 0 || static_cast<std::size_t>(b.component) >= components.size()) continue;
-    if (splits[fa]) b.evidence.split_seam = b.evidence.interior_seam;
-    if (doubled[fa] < 0) continue;
+    // A band of tape along a box's middle is its own carton's: two cartons of another format
+    // would carry theirs across it.
+    const bool own_tape = (splits[fa] || doubled[fa] >= 0) && layout_detail::taped(b, seams);
+    if (splits[fa] && !own_tape) b.evidence.split_seam = b.evidence.interior_seam;
+    if (doubled[fa] < 0 || own_tape) continue;
     const BoxFormat& pair_format = formats[static_cast<std::size_t>(doubled[fa])];
     const Eigen::Vector2d axis(std::cos(b.yaw_rad), std::sin(b.yaw_rad));
     for (const LayoutBox& n : boxes) {  // a neighbour across its long side, of its format, in line
@@ -68,6 +73,7 @@ void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const st
       if (std::abs(std::remainder(n.yaw_rad - b.yaw_rad, M_PI)) > 3.0 * M_PI / 180.0) continue;
       if (std::abs(d.dot(axis)) > kSameSize_m || std::abs(std::abs(d.x() * axis.y() - d.y() * axis.x()) - formats[fa].short_m) > 0.025)
         continue;
+      if (layout_detail::taped(n, seams)) continue;
       Box2d pair = b;
       pair.center = 0.5 * (b.center + n.center);
       pair.yaw_rad = b.yaw_rad + M_PI / 2;

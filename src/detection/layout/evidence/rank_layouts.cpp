@@ -95,24 +95,35 @@ Ranking rank_by_likelihood(const std::vector<Candidate>& cands, const std::vecto
                      params.seams.margin_m, judge.absent_cap_nats);
   std::vector<const std::vector<FrameBox>*> layouts;
   for (std::size_t n : near) layouts.push_back(&cands[n].boxes);
-  if (!lik.calibrate(layouts)) {
+  const bool seams_usable = lik.calibrate(layouts);
+  if (!seams_usable) {
     seams_invisible = lik.measured();
-    return {};
+    if (!lik.reads_tape()) return {};
   }
   // Evidence of each against the outline's best, then the winner against every other.
   std::vector<double> ev(near.size(), 0.0);
   for (std::size_t i = 1; i < near.size(); ++i)
     ev[i] = lik.compare(cands[near[i]].boxes, cands[near[0]].boxes);
   const auto w = static_cast<std::size_t>(std::max_element(ev.begin(), ev.end()) - ev.begin());
-  double margin_nats = 1e300;
+  double margin_nats = 1e300, seams_margin_nats = 1e300;
   for (std::size_t i = 0; i < near.size(); ++i) {
-    if (i != w) margin_nats = std::min(margin_nats, lik.compare(cands[near[w]].boxes, cands[near[i]].boxes));
+    if (i == w) continue;
+    margin_nats = std::min(margin_nats, lik.compare(cands[near[w]].boxes, cands[near[i]].boxes));
+    seams_margin_nats =
+        std::min(seams_margin_nats, lik.compare(cands[near[w]].boxes, cands[near[i]].boxes, false));
   }
+  const double decisive = SeamLikelihood::decisive_nats(judge.min_short_m);
+  // Tape decides among the candidates only where the winner explains every band the layer
+  // shows: the right layout may be none of them.
+  if (seams_margin_nats < decisive && margin_nats >= decisive &&
+      lik.unexplained_band_m(cands[near[w]].boxes) > 0.0)
+    margin_nats = seams_margin_nats;
+  if (!seams_usable && margin_nats < decisive) return {};  // the tape alone did not decide either
   Ranking r;
   r.order.push_back(near[w]);
   for (std::size_t i = 0; i < near.size(); ++i)
     if (i != w) r.order.push_back(near[i]);
-  r.ambiguous = margin_nats < SeamLikelihood::decisive_nats(judge.min_short_m);
+  r.ambiguous = margin_nats < decisive;
   return r;
 }
 

@@ -122,7 +122,7 @@ RetileResult retile_by_seams(std::vector<FrameBox>* boxes, const std::vector<Box
   for (std::size_t round = 0; round <= 2 * boxes->size(); ++round) {
     const std::vector<FootprintMove> moves = footprint_moves(*boxes, formats, tol_m);
     if (moves.empty()) return res;
-    if (lik == nullptr || !lik->usable()) {
+    if (lik == nullptr || (!lik->usable() && !lik->reads_tape())) {
       res.tied = true;  // outline-equal layouts and no usable seams
       return res;
     }

@@ -26,6 +26,10 @@ constexpr double kPieceCap = 3.0;
 /// pressed shut, so a missing seam weighs at most half of a clear one (the measurement behind
 /// the half is in the history of this line).
 constexpr double kMissingSeamCap = 0.5 * kPieceCap;
+/// Evidence of a band of tape along a box's middle line [nats per m]: half of a clear seam of
+/// the same length (it shows one carton's middle; a seam shows two cartons' sides). A band along
+/// a whole 400 x 300 carton decides between layouts whose shortest box side is 300 mm.
+constexpr double kTapeNatsPerM = 0.5 * kPieceCap / kPiece_m;
 
 double mad_sigma(const std::vector<double>& v, double med) {
   std::vector<double> d;
@@ -54,6 +58,7 @@ SeamLikelihood::SeamLikelihood(const SeamEvidence& seams, const LayoutFrame& fra
   }
   // The raw raster (no line filter) turned into the frame: the likelihood does its own
   // averaging along the predicted lines.
+  tape_ = TapeEvidence(seams, frame, x0_, y0_, w_, h_);
   const cv::Mat dst = seams_in_frame(seams, frame, x0_, y0_, w_, h_);
   cv::Mat sat;
   cv::integral(dst, sat, CV_64F);
@@ -203,8 +208,14 @@ double SeamLikelihood::llr(double c, bool vertical) const {
   return v < 0.0 && axis_seams_[vertical ? 1 : 0] < 2 ? 0.0 : v;
 }
 
-double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const {
-  if (!usable_) return 0.0;
+double SeamLikelihood::tape_nats(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const {
+  return tape_splits(a, b) ? 0.0 : kTapeNatsPerM * tape_.compare_m(a, b);
+}
+
+double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b,
+                               bool with_tape) const {
+  const double tape = with_tape ? tape_nats(a, b) : 0.0;
+  if (!usable_) return tape;
   const auto pa = pieces(a), pb = pieces(b);
   // Pieces where the layouts disagree, with the sign of the layout that predicts the seam.
   struct Diff {
@@ -237,7 +248,7 @@ double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector
     }
     i = j;
   }
-  return d + std::clamp(absent, -absent_cap_, absent_cap_);
+  return d + std::clamp(absent, -absent_cap_, absent_cap_) + tape;
 }
 
 }  // namespace palletd::layout_detail

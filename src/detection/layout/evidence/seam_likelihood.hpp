@@ -20,6 +20,7 @@
 #include <map>
 #include <vector>
 
+#include "evidence/tape.hpp"
 #include "layout_internal.hpp"
 
 namespace palletd::layout_detail {
@@ -45,8 +46,25 @@ class SeamLikelihood {
   /// The last calibration had enough reference pieces to judge the seams (usable() or not).
   [[nodiscard]] bool measured() const { return measured_; }
 
-  /// Evidence [nats] that layout a rather than b explains the seams (antisymmetric).
-  [[nodiscard]] double compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const;
+  /// The intensity shows the tops (tape along cartons' flaps can be read): compare() weighs it
+  /// even where the seams are not usable.
+  [[nodiscard]] bool reads_tape() const { return !tape_.empty(); }
+
+  /// Both layouts have bands of tape along boxes the other has not: whichever wins, a band the
+  /// other found runs where the winner has no carton's middle (neither explains all the tape).
+  [[nodiscard]] bool tape_splits(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const {
+    return tape_.only_m(a, b) > 0.0 && tape_.only_m(b, a) > 0.0;
+  }
+
+  /// Evidence [nats] that layout a rather than b explains the seams and the tape along the
+  /// cartons' flaps (antisymmetric); the tape alone where the seams are not usable. Without the
+  /// tape where tape_splits(a, b).
+  [[nodiscard]] double compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b,
+                               bool with_tape = true) const;
+  /// TapeEvidence::unexplained_band_m() of the boxes [m].
+  [[nodiscard]] double unexplained_band_m(const std::vector<FrameBox>& boxes) const {
+    return tape_.unexplained_band_m(boxes);
+  }
   /// Evidence that decides [nats]: a clear seam along half of the shortest box side.
   [[nodiscard]] static double decisive_nats(double min_short_m);
 
@@ -78,6 +96,7 @@ class SeamLikelihood {
   /// as on a pallet filled edge to edge, look like box tops); a clear seam still is.
   [[nodiscard]] double llr(double c, bool vertical) const;
   [[nodiscard]] double strip_mean(double x0, double y0, double x1, double y1) const;
+  [[nodiscard]] double tape_nats(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const;
 
   const PolygonWithHoles* polygon_;
   double tol_ = 0.01, margin_ = 0.012;
@@ -89,6 +108,7 @@ class SeamLikelihood {
   bool usable_ = false;
   bool measured_ = false;
   double absent_cap_ = 0;  ///< [nats]
+  TapeEvidence tape_;
 };
 
 /// An outline-equal change of a layout: the boxes `remove` (indices) give way to `add`, which

@@ -16,6 +16,11 @@ namespace palletd::layout_detail {
 cv::Mat seams_in_frame(const SeamEvidence& seams, const LayoutFrame& frame, double x0_m, double y0_m, int width,
                        int height);
 
+/// Any raster of the seam raster's geometry (`values`: seams.width x seams.height, row-major)
+/// turned into a layout frame like seams_in_frame().
+cv::Mat raster_in_frame(const std::vector<float>& values, const SeamEvidence& seams, const LayoutFrame& frame,
+                        double x0_m, double y0_m, int width, int height);
+
 /// Sum of a (w + 1) x (h + 1) summed-area table over the fractional cell rectangle
 /// [fx0, fx1) x [fy0, fy1) (inside 0..w, 0..h), read bilinearly: exact for values constant per cell.
 double sat_sum_bilinear(const std::vector<double>& sat, int w, int h, double fx0, double fy0, double fx1, double fy1);

@@ -12,6 +12,11 @@ namespace palletd::layout_detail {
 
 cv::Mat seams_in_frame(const SeamEvidence& seams, const LayoutFrame& frame, double x0_m, double y0_m, int width,
                        int height) {
+  return raster_in_frame(seams.seam, seams, frame, x0_m, y0_m, width, height);
+}
+
+cv::Mat raster_in_frame(const std::vector<float>& values, const SeamEvidence& seams, const LayoutFrame& frame,
+                        double x0_m, double y0_m, int width, int height) {
   const double cell = seams.cell_m;
   // dst pixel (c, r) -> frame q -> layer p -> src pixel; an affine map.
   const double c = std::cos(frame.theta_rad), s = std::sin(frame.theta_rad);
@@ -22,7 +27,7 @@ cv::Mat seams_in_frame(const SeamEvidence& seams, const LayoutFrame& frame, doub
                 k * (c * qx0 - s * qy0 + frame.pivot.x() - seams.origin_m.x()) - 0.5,
                 k * s * cell, k * c * cell,
                 k * (s * qx0 + c * qy0 + frame.pivot.y() - seams.origin_m.y()) - 0.5);
-  const cv::Mat src(seams.height, seams.width, CV_32F, const_cast<float*>(seams.seam.data()));
+  const cv::Mat src(seams.height, seams.width, CV_32F, const_cast<float*>(values.data()));
   cv::Mat dst;
   cv::warpAffine(src, dst, m, cv::Size(width, height), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                  cv::BORDER_CONSTANT, cv::Scalar(0));

@@ -245,10 +245,19 @@ float pixel_seam(const PixelScoring& ps, std::size_t pix, int u, int v) {
   return s;
 }
 
-/// Seam-likeness summed per cell over the pixels that fall into it, and their count.
+/// Seam-likeness summed per cell over the pixels that fall into it, and their count; the
+/// intensity of the pixels on the plane (box tops) summed per cell, and their count.
 struct CellSums {
   std::vector<float> sum, count;
+  std::vector<float> tops, tops_count;
 };
+
+/// Whether pixel `pix` has depth within step_m of the plane: a box top, not a gap or a bevel.
+bool on_top(const PixelScoring& ps, std::size_t pix) {
+  const Eigen::Vector3f& p = ps.cloud.points[pix];
+  return std::isfinite(p.x()) && std::isfinite(p.z()) &&
+         std::abs(ps.plane.signed_distance(p.cast<double>())) <= ps.step_m;
+}
 
 /// Each pixel's seam-likeness summed into the cell it falls into, for the cells inside the mask
 /// and their eight neighbours (cell_means() reads no others).
@@ -257,7 +266,10 @@ CellSums sum_cells(const PixelScoring& ps, const std::vector<int>& cell_of,
   std::vector<std::uint8_t> read(mask_cells.size(), 0);
   cv::dilate(cv::Mat(raster_height, raster_width, CV_8U, const_cast<std::uint8_t*>(mask_cells.data())),
              cv::Mat(raster_height, raster_width, CV_8U, read.data()), cv::Mat::ones(3, 3, CV_8U));
-  CellSums sums{std::vector<float>(mask_cells.size(), 0.f), std::vector<float>(mask_cells.size(), 0.f)};
+  const std::size_t n = mask_cells.size();
+  const bool tops = ps.frame.has_intensity() && ps.frame.intensity.size() == ps.frame.pixel_count();
+  CellSums sums{std::vector<float>(n, 0.f), std::vector<float>(n, 0.f), {}, {}};
+  if (tops) sums.tops.assign(n, 0.f), sums.tops_count.assign(n, 0.f);
   const auto width = static_cast<std::size_t>(ps.frame.intrinsics.width);
   for (std::size_t pix = 0; pix < cell_of.size(); ++pix) {
     const int cell = cell_of[pix];
@@ -266,6 +278,10 @@ CellSums sum_cells(const PixelScoring& ps, const std::vector<int>& cell_of,
     const auto c = static_cast<std::size_t>(cell);
     sums.sum[c] += s;
     sums.count[c] += 1.f;
+    if (tops && on_top(ps, pix)) {
+      sums.tops[c] += static_cast<float>(ps.frame.intensity[pix]);
+      sums.tops_count[c] += 1.f;
+    }
   }
   return sums;
 }
@@ -299,6 +315,14 @@ void cell_means(CellSums& sums, const std::vector<std::uint8_t>& mask_cells, Sea
     }
   }
   ev.strength = inside > 0 ? static_cast<double>(seamy) / static_cast<double>(inside) : 0.0;
+  if (sums.tops.empty()) return;
+  ev.tops.assign(sum.size(), 0.f);
+  ev.tops_seen.assign(sum.size(), 0.f);
+  for (std::size_t c = 0; c < sum.size(); ++c) {
+    if (mask_cells[c] == 0 || sums.tops_count[c] <= 0.f) continue;
+    ev.tops[c] = sums.tops[c] / sums.tops_count[c];
+    ev.tops_seen[c] = 1.f;
+  }
 }
 
 }  // namespace

@@ -159,6 +159,10 @@ struct SeamEvidence {
   std::vector<float> seam;                             ///< row-major (row = y), 0..1
   double strength = 0.0;  ///< share of layer cells that look like seams (> 0.5); 0 = no evidence
   double depth_threshold_m = 0.0;  ///< depth below the plane where seams start (noise-aware) [m]
+  /// The intensity of the box tops on the same raster (pixels on the plane within
+  /// depth_threshold_m, mean per cell) and 1 where a cell has such pixels, else both 0; empty
+  /// without an intensity image. Tape along a carton's flaps shows in it (evidence/tape.hpp).
+  std::vector<float> tops, tops_seen;
 
   [[nodiscard]] bool empty() const { return width <= 0 || height <= 0 || seam.empty(); }
   [[nodiscard]] float at(int ix, int iy) const {
