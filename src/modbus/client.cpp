@@ -32,7 +32,9 @@ Status PlcClient::connect() {
   ctx_->ctx = modbus_new_tcp_pi(host_.c_str(), service.c_str());
   if (ctx_->ctx == nullptr) return Error{"modbus: cannot create a client for " + host_ + ":" + service};
   modbus_set_slave(ctx_->ctx, unit_id_);
-  modbus_set_response_timeout(ctx_->ctx, 2, 0);
+  const auto us = std::chrono::duration_cast<std::chrono::microseconds>(response_timeout_).count();
+  modbus_set_response_timeout(ctx_->ctx, static_cast<std::uint32_t>(us / 1000000),
+                              static_cast<std::uint32_t>(us % 1000000));
   if (modbus_connect(ctx_->ctx) != 0)
     return Error{"modbus: cannot connect to " + host_ + " port " + service + ": " + modbus_strerror(errno)};
   ctx_->connected = true;

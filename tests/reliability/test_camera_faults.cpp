@@ -5,16 +5,18 @@
 // answers every trigger over Modbus with a status, sets CameraOK and the error code, counts (the
 // fault counters in registers 118..129, read here over Modbus TCP like a PLC), and recovers by
 // itself once the camera behaves again. Time bounds are multiplied by PALLETD_TEST_TIME_SCALE.
-#include <arv.h>
-
 #include <atomic>
 #include <cstring>
+#include <memory>
 #include <mutex>
+
+#include <arv.h>
+
+#include "palletd/modbus/client.hpp"
+#include "palletd/modbus/register_map.hpp"
 
 #include "daemon_harness.hpp"
 #include "netns.hpp"
-#include "palletd/modbus/client.hpp"
-#include "palletd/modbus/register_map.hpp"
 
 using namespace palletd::test;
 using namespace palletd::modbus;
@@ -111,8 +113,21 @@ struct FakeCamera {
 
 StatusRecord read_status(PlcClient& plc) {
   RegisterImage image{};
-  REQUIRE(plc.read(kStatusStart, kStatusCount, image));
+  const palletd::Status read = plc.read(kStatusStart, kStatusCount, image);
+  INFO("status read: " << (read.ok() ? std::string("ok") : read.error()));
+  REQUIRE(read.ok());
   return decode_status(image, WordOrder::kHighWordFirst);
+}
+
+/// A PLC connected to palletd whose reply timeout (2 s) stretches with the test's time bounds: a
+/// sanitizer build runs the daemon several times slower, beside other tests on two cores.
+std::unique_ptr<PlcClient> connect_plc(int port) {
+  auto plc = std::make_unique<PlcClient>("127.0.0.1", port, 1);
+  plc->set_response_timeout(scaled(2s));
+  const palletd::Status connected = plc->connect();
+  INFO((connected.ok() ? std::string("connected") : connected.error()));
+  REQUIRE(connected.ok());
+  return plc;
 }
 
 bool camera_ok(PlcClient& plc) { return (read_status(plc).status_word & kStCameraOk) != 0; }
@@ -173,8 +188,8 @@ TEST_CASE("GigE camera vanishes or stalls or sends frames that do not fit: palle
       if (t.joinable()) t.join();
     }
   } join_watch{stop_watch, watch};
-  PlcClient plc("127.0.0.1", port, 1);
-  REQUIRE(plc.connect());
+  const std::unique_ptr<PlcClient> plc_connection = connect_plc(port);
+  PlcClient& plc = *plc_connection;
   std::uint16_t request = 1;
   // Every trigger gets a result; failed ones carry an error code and are cleared as a PLC would.
   const auto trigger = [&]() {
@@ -208,8 +223,8 @@ TEST_CASE("GigE camera vanishes or stalls or sends frames that do not fit: palle
 
   SECTION("the camera vanishes mid-stream and returns") {
     // A second client watches CameraOK while the PLC's trigger is under way.
-    PlcClient watcher("127.0.0.1", port, 1);
-    REQUIRE(watcher.connect());
+    const std::unique_ptr<PlcClient> watcher_connection = connect_plc(port);
+    PlcClient& watcher = *watcher_connection;
     fake.power_off();
     const auto t_off = std::chrono::steady_clock::now();
     std::atomic<bool> dropped{false};

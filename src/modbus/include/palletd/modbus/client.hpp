@@ -19,6 +19,9 @@ class PlcClient {
   PlcClient(const PlcClient&) = delete;
   PlcClient& operator=(const PlcClient&) = delete;
 
+  /// How long one request waits for its reply (default 2 s, applied by connect()). Tests under a
+  /// sanitizer stretch it with their other time bounds.
+  void set_response_timeout(std::chrono::milliseconds timeout) { response_timeout_ = timeout; }
   Status connect();
   /// Reads registers [start, start + count) (holding registers, split into reads of at most 125).
   Status read(std::uint16_t start, std::uint16_t count, RegisterImage& image);
@@ -50,6 +53,7 @@ class PlcClient {
   std::string host_;
   int port_;
   int unit_id_;
+  std::chrono::milliseconds response_timeout_{2000};
   struct Context;
   std::unique_ptr<Context> ctx_;
 };
