@@ -76,16 +76,37 @@ void write_picture(const std::string& path, const Frame& frame, const RoiSuggest
   }
 }
 
+/// camera_to_base and where it came from.
+struct Calibration {
+  std::optional<Eigen::Isometry3d> T_base_camera;
+  bool from_frame = false;  ///< the frame's JSON gave it (the configuration has none)
+};
+
 /// camera_to_base from the configuration when it has one, else from the frame's JSON.
-std::optional<Eigen::Isometry3d> calibration(const RoiArgs& a, const Frame& frame) {
-  if (a.config.empty()) return frame.T_base_camera;
+Calibration calibration(const RoiArgs& a, const Frame& frame) {
+  const Calibration from_frame{frame.T_base_camera, frame.T_base_camera.has_value()};
+  if (a.config.empty()) return from_frame;
   try {
     const Config config = load_config(a.config);
-    return config.T_base_camera ? config.T_base_camera : frame.T_base_camera;
+    return config.T_base_camera ? Calibration{config.T_base_camera, false} : from_frame;
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     throw CLI::RuntimeError(kExitConfigError);
   }
+}
+
+/// camera_to_base as the configuration writes it (4x4 row-major), with where it came from: a
+/// region in the base frame is only valid in a configuration that has it.
+std::string camera_to_base_yaml(const Eigen::Isometry3d& T_base_camera, const std::string& stem) {
+  std::string text =
+      "# the frame's calibration (" + stem + ".json): the region's base frame\ncamera_to_base: [";
+  const Eigen::Matrix4d& m = T_base_camera.matrix();
+  for (int i = 0; i < 16; ++i) {
+    char value[32];
+    std::snprintf(value, sizeof value, "%.9g", m(i / 4, i % 4) == 0.0 ? 0.0 : m(i / 4, i % 4));
+    text += (i == 0 ? "" : i % 4 == 0 ? ",   " : ", ") + std::string(value);
+  }
+  return text + "]\n";
 }
 
 int run_roi(const RoiArgs& a) {
@@ -94,14 +115,14 @@ int run_roi(const RoiArgs& a) {
     spdlog::error("{}", frame.error());
     return 1;
   }
-  const std::optional<Eigen::Isometry3d> T_base_camera = calibration(a, *frame);
+  const Calibration calibrated = calibration(a, *frame);
   RoiSuggestionOptions options;
   options.frame = a.frame == "base" ? RegionOfInterest::Frame::kBase : RegionOfInterest::Frame::kCamera;
   options.margin_m = a.margin_m;
   options.above_m = a.above_m;
   options.max_load_height_m = a.max_load_height_m;
   options.tall_step_m = a.tall_step_m;
-  const RoiSuggestion s = suggest_region_of_interest(*frame, T_base_camera, options);
+  const RoiSuggestion s = suggest_region_of_interest(*frame, calibrated.T_base_camera, options);
   if (!s.ok) {
     spdlog::error("{}: {}", a.stem, s.message);
     return 1;
@@ -111,6 +132,8 @@ int run_roi(const RoiArgs& a) {
                  a.config.empty() ? "the frame's JSON" : a.config + " or the frame's JSON");
   }
   std::printf("%s", roi_yaml(s.roi).c_str());
+  if (s.roi.frame == RegionOfInterest::Frame::kBase && calibrated.from_frame)
+    std::printf("%s", camera_to_base_yaml(*calibrated.T_base_camera, a.stem).c_str());
   std::fflush(stdout);
   spdlog::info("{}", s.message);
   if (!a.out_png.empty()) write_picture(a.out_png, *frame, s);
@@ -129,7 +152,9 @@ void register_roi(CLI::App& app) {
       "that lies under the optical axis (where it meets the floor), or the blob nearest to that point.\n"
       "Points higher than the stack's top there by more than --tall-step-m are another object (a cabinet\n"
       "touching the pallet) and are left out. The region: the blob's bounding box grown by --margin-m, from\n"
-      "the floor + 0.1 m up to the load's top + --above-m (or the floor + --max-load-height-m).");
+      "the floor + 0.1 m up to the load's top + --above-m (or the floor + --max-load-height-m).\n"
+      "A region in the base frame comes with the frame's camera_to_base when --config has none: the\n"
+      "snippet is then a configuration of its own (palletctl detect --config).");
   cmd->add_option("frame_stem", args->stem,
                   "frame stem (path without .depth.png), pallet in the middle of the view")
       ->required();

@@ -199,6 +199,16 @@ TEST_CASE(
   CHECK(roi.exit_code == 0);
   CHECK_THAT(roi.out,
              Contains("detection:") && Contains("roi:") && Contains("frame: base") && Contains("min_m:"));
+  // The frame's calibration comes with the region: the snippet alone is a configuration detect
+  // accepts (a region in the base frame without camera_to_base is a configuration error).
+  CHECK_THAT(roi.out, Contains("camera_to_base: ["));
+  const std::string snippet = dir.file("snippet.yaml");
+  write(snippet, roi.out);
+  const Run with_snippet =
+      run("src/palletctl/palletctl", {"detect", stem, "--box", "400x300", "--config", snippet});
+  INFO(with_snippet.err);
+  CHECK(with_snippet.exit_code == 0);
+  CHECK_THAT(with_snippet.out, Contains("\"status\":"));
 
   const Run eval = run("src/palletctl/palletctl", {"eval", out, "--cell-files", "-q"});
   CHECK(eval.exit_code == 0);
