@@ -48,8 +48,10 @@ class Grid {
 };
 
 /// Share of the rectangle's seen cells (top or lower) that are top, inset by `inset_m`;
-/// `seen_cells` counts the cells that were seen at all.
-double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_cells);
+/// `seen_cells` counts the cells that were seen at all. Cells inside `taken_by_others` (other
+/// boxes where they stand now) are left out: their top is not this box's.
+double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_cells,
+                 const std::vector<Box2d>& taken_by_others = {});
 
 /// One edge measurement: a point on the box's side (box frame), its outward normal (box frame),
 /// and how far outward of the side the step down was found [m].

@@ -127,6 +127,32 @@ double edge_bias(const Grid& before, const std::vector<DetectedBox>& boxes) {
   return upper_median(std::move(offsets));
 }
 
+/// Presence once more with the moved boxes' tops, where they stand now (grown by the error of
+/// their new poses), left out: a neighbour dragged over a picked box's place, whose floor the
+/// camera may not see at all (a deep, narrow hole), is not that box still standing.
+void recheck_presence(const Grid& now, const std::vector<DetectedBox>& boxes, std::vector<BoxCheck>& checks) {
+  constexpr double kMovedPoseError_m = 0.005;
+  std::vector<Box2d> moved;
+  for (const BoxCheck& c : checks) {
+    if (!c.moved) continue;
+    Box2d grown = c.now.in_layer;
+    grown.long_m += 2.0 * kMovedPoseError_m;
+    grown.short_m += 2.0 * kMovedPoseError_m;
+    moved.push_back(grown);
+  }
+  if (moved.empty()) return;
+  for (std::size_t i = 0; i < checks.size(); ++i) {
+    BoxCheck& c = checks[i];
+    if (c.moved || !c.present) continue;
+    int seen_cells = 0;
+    const double share = pick_check::top_share(now, boxes[i].in_layer, kInset_m, seen_cells, moved);
+    if (seen_cells >= kMinSeenCells && share < 0.5) {
+      c.present = false;
+      c.seen_share = share;
+    }
+  }
+}
+
 PickVerdict verdict_of(const std::vector<BoxCheck>& boxes, std::string& message) {
   PickVerdict verdict = PickVerdict::kPickOk;
   auto worse = [&](PickVerdict v, const std::string& what) {
@@ -206,6 +232,7 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
     }
     out.boxes.push_back(std::move(c));
   }
+  recheck_presence(now, last.boxes, out.boxes);
   std::string message;
   const PickVerdict verdict = verdict_of(out.boxes, message);
   return finish(verdict, message);

@@ -54,7 +54,17 @@ Seen Grid::at(const Eigen::Vector2d& p_m) const {
   return cells_[static_cast<std::size_t>(fy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(fx)];
 }
 
-double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_cells) {
+namespace {
+
+bool inside(const Box2d& box, const Eigen::Vector2d& p_m) {
+  const Eigen::Vector2d q = Eigen::Rotation2Dd(-box.yaw_rad) * (p_m - box.center);
+  return std::abs(q.x()) <= 0.5 * box.long_m && std::abs(q.y()) <= 0.5 * box.short_m;
+}
+
+}  // namespace
+
+double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_cells,
+                 const std::vector<Box2d>& taken_by_others) {
   const Eigen::Vector2d u(std::cos(box.yaw_rad), std::sin(box.yaw_rad)), v(-u.y(), u.x());
   const double a = 0.5 * box.long_m - inset_m, b = 0.5 * box.short_m - inset_m;
   int top = 0;
@@ -62,8 +72,12 @@ double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_c
   constexpr double kStep_m = 0.004;
   for (double x = -a; x <= a; x += kStep_m) {
     for (double y = -b; y <= b; y += kStep_m) {
-      const Seen s = grid.at(box.center + x * u + y * v);
+      const Eigen::Vector2d p_m = box.center + x * u + y * v;
+      const Seen s = grid.at(p_m);
       if (s == Seen::kUnknown) continue;
+      if (std::any_of(taken_by_others.begin(), taken_by_others.end(),
+                      [&](const Box2d& other) { return inside(other, p_m); }))
+        continue;
       ++seen_cells;
       top += s == Seen::kTop ? 1 : 0;
     }
