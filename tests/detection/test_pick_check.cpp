@@ -24,22 +24,29 @@ struct Picking {
   Detection last;
 };
 
-Picking start(const std::string& profile_name, std::uint64_t seed,
-              const std::string& format = "400x300x250") {
+/// The scene of `o` seen by `profile_name`, and its detection (the result a check starts from).
+Picking start(const std::string& profile_name, std::uint64_t seed, const sim::ScenarioOptions& o) {
   Picking p;
   p.profile = *sim::profile_by_name(profile_name);
-  sim::ScenarioOptions o;
-  o.pattern = sim::PatternFamily::kBlock;
-  o.formats = {*sim::parse_format(format)};
-  o.tilt_max_deg = 10.0;
-  o.height_min_m = 1.5;
-  o.height_max_m = 2.2;
   p.scene = *sim::make_scene(o, p.profile, seed);
   p.before = sim::render(p.scene, p.profile, seed);
   std::vector<BoxFormat> formats;
   for (const auto& r : p.scene.recipe) formats.push_back(BoxFormat{r.long_m, r.short_m, r.name, 0.0});
   p.last = detect(p.before.frame, formats, DetectionParams{});
   REQUIRE(p.last.status == DetectionStatus::kOk);
+  return p;
+}
+
+/// A block layer of `format` at 1.5-2.2 m, the camera tilted up to 10 degrees.
+Picking start(const std::string& profile_name, std::uint64_t seed,
+              const std::string& format = "400x300x250") {
+  sim::ScenarioOptions o;
+  o.pattern = sim::PatternFamily::kBlock;
+  o.formats = {*sim::parse_format(format)};
+  o.tilt_max_deg = 10.0;
+  o.height_min_m = 1.5;
+  o.height_max_m = 2.2;
+  Picking p = start(profile_name, seed, o);
   REQUIRE(p.last.boxes.size() == p.scene.top_layer.size());
   return p;
 }
@@ -173,17 +180,10 @@ TEST_CASE("pick check: a neighbour dragged toward the gap or turned is found, wi
 // picked box still standing.
 TEST_CASE("pick check: a neighbour dragged over the picked box's place is moved - the pick is not missed",
           "[pick_check]") {
-  Picking p;
   const std::uint64_t seed = sim::frame_seed(90897, 29);
-  p.profile = *sim::profile_by_name("blaze101");
   sim::ScenarioOptions o;
   o.pattern = sim::PatternFamily::kPinwheel;
-  p.scene = *sim::make_scene(o, p.profile, seed);
-  p.before = sim::render(p.scene, p.profile, seed);
-  std::vector<BoxFormat> formats;
-  for (const auto& r : p.scene.recipe) formats.push_back(BoxFormat{r.long_m, r.short_m, r.name, 0.0});
-  p.last = detect(p.before.frame, formats, DetectionParams{});
-  REQUIRE(p.last.status == DetectionStatus::kOk);
+  const Picking p = start("blaze101", seed, o);
   const int neighbour = neighbour_of(p, 0);
   const std::size_t picked_box = scene_box(p, 0), moved_box = scene_box(p, neighbour);
   sim::Scene after = without(p.scene, {picked_box});
