@@ -222,6 +222,17 @@ int run_calibrate(const CalibrateArgs& a) {
   const double rms = std::sqrt(sum_sq / static_cast<double>(points.size()));
   std::printf("# RMS residual %.2f mm, max %.2f mm\n", rms, worst);
   std::printf("# paste into the configuration (4x4 row-major, camera frame -> robot base frame, metres):\n");
+  std::printf("%s", camera_to_base_yaml(T_base_camera).c_str());
+  if (rms > 10.0)
+    spdlog::warn("RMS residual {:.1f} mm is large: check the point list (units {}, pixel order u v)", rms,
+                 a.units);
+  return 0;
+}
+
+}  // namespace
+
+std::string camera_to_base_yaml(const Eigen::Isometry3d& T_base_camera) {
+  const Eigen::Matrix4d& T = T_base_camera.matrix();
   std::string yaml = "camera_to_base: [";
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) {
@@ -229,12 +240,8 @@ int run_calibrate(const CalibrateArgs& a) {
       if (r != 3 || c != 3) yaml += c == 3 ? ",   " : ", ";
     }
   }
-  std::printf("%s]\n", yaml.c_str());
-  if (rms > 10.0) spdlog::warn("RMS residual {:.1f} mm is large: check the point list (units {}, pixel order u v)", rms, a.units);
-  return 0;
+  return yaml + "]\n";
 }
-
-}  // namespace
 
 void register_calibrate(CLI::App& app) {
   auto args = std::make_shared<CalibrateArgs>();

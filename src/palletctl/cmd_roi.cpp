@@ -95,20 +95,6 @@ Calibration calibration(const RoiArgs& a, const Frame& frame) {
   }
 }
 
-/// camera_to_base as the configuration writes it (4x4 row-major), with where it came from: a
-/// region in the base frame is only valid in a configuration that has it.
-std::string camera_to_base_yaml(const Eigen::Isometry3d& T_base_camera, const std::string& stem) {
-  std::string text =
-      "# the frame's calibration (" + stem + ".json): the region's base frame\ncamera_to_base: [";
-  const Eigen::Matrix4d& m = T_base_camera.matrix();
-  for (int i = 0; i < 16; ++i) {
-    char value[32];
-    std::snprintf(value, sizeof value, "%.9g", m(i / 4, i % 4) == 0.0 ? 0.0 : m(i / 4, i % 4));
-    text += (i == 0 ? "" : i % 4 == 0 ? ",   " : ", ") + std::string(value);
-  }
-  return text + "]\n";
-}
-
 int run_roi(const RoiArgs& a) {
   Expected<Frame> frame = read_frame(a.stem);
   if (!frame) {
@@ -133,7 +119,8 @@ int run_roi(const RoiArgs& a) {
   }
   std::printf("%s", roi_yaml(s.roi).c_str());
   if (s.roi.frame == RegionOfInterest::Frame::kBase && calibrated.from_frame)
-    std::printf("%s", camera_to_base_yaml(*calibrated.T_base_camera, a.stem).c_str());
+    std::printf("# the frame's calibration (%s.json): the region's base frame\n%s", a.stem.c_str(),
+                camera_to_base_yaml(*calibrated.T_base_camera).c_str());
   std::fflush(stdout);
   spdlog::info("{}", s.message);
   if (!a.out_png.empty()) write_picture(a.out_png, *frame, s);

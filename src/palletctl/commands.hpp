@@ -26,6 +26,10 @@ void register_teach(CLI::App& app);       // palletctl teach STEM: carton sizes 
 void register_grab(CLI::App& app);    // palletctl grab --config FILE -n N --out DIR
 void register_record(CLI::App& app);  // palletctl record --config FILE [--out DIR]
 
+/// `camera_to_base: [...]` as the configuration reads it (4x4 row-major, metres), one line
+/// (cmd_calibrate.cpp; `palletctl roi` prints it beside a base-frame region).
+std::string camera_to_base_yaml(const Eigen::Isometry3d& T_base_camera);
+
 /// One frame from the configured camera (opened and closed for it), with the configuration's
 /// camera_to_base (cmd_grab.cpp; `drift --set` uses it).
 Expected<Frame> grab_one_frame(const Config& config);
