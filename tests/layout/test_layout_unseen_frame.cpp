@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include "palletd/detection/detection.hpp"
+#include "palletd/detection/layout.hpp"
 #include "palletd/frames/frame_io.hpp"
 
 using namespace palletd;
@@ -147,4 +148,37 @@ TEST_CASE("the same cut with the surface seen lower beyond it: the layer ends th
     const Eigen::Vector2d px = project(s.frame.intrinsics, b.center);
     CHECK_FALSE(beyond(s, px.x(), px.y()));
   }
+}
+
+TEST_CASE("surroundings built once for the longest size complete the boxes each layout's own would") {
+  // The detection of unknown cartons lays one layer out with many sizes on surroundings built once
+  // (LayerEvidence::around): for any box up to around_reach_m they must act as each layout's own.
+  CutScene s = cut_scene("01_block_600x400_o3d303");
+  apply_cut(s, 0.0);
+  const Detection d = detect(s.frame, s.formats, DetectionParams{});
+  REQUIRE(d.status == DetectionStatus::kOk);
+  OrganizedCloud cloud;
+  to_organized_cloud(s.frame, RayTable(s.frame.intrinsics), cloud);
+  LayoutParams p;
+  p.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+  LayerEvidence evidence = build_layer_evidence(s.frame, cloud, d.layer, p.seams);
+  const LayoutResult own = solve_layout(s.frame, cloud, d.layer, evidence, s.formats, p);
+  REQUIRE(own.completed_unseen > 0);  // the scene tests what it means to
+
+  evidence.around = build_layer_surroundings(s.frame, cloud, d.layer, 0.8);
+  evidence.around_reach_m = 0.8;
+  const LayoutResult shared = solve_layout(s.frame, cloud, d.layer, evidence, s.formats, p);
+  CHECK(shared.completed_unseen == own.completed_unseen);
+  REQUIRE(shared.boxes.size() == own.boxes.size());
+  for (std::size_t i = 0; i < own.boxes.size(); ++i) {
+    CHECK((shared.boxes[i].center - own.boxes[i].center).norm() < 1e-3);
+    CHECK(shared.boxes[i].partly_unseen == own.boxes[i].partly_unseen);
+  }
+  // Surroundings that show nothing are read where they reach far enough (no box is completed
+  // across the cut) and left for the layout's own where they fall short of its boxes.
+  evidence.around = LayerSurroundings{};
+  CHECK(solve_layout(s.frame, cloud, d.layer, evidence, s.formats, p).completed_unseen == 0);
+  evidence.around_reach_m = 0.5 * s.formats.front().long_m;
+  CHECK(solve_layout(s.frame, cloud, d.layer, evidence, s.formats, p).completed_unseen ==
+        own.completed_unseen);
 }

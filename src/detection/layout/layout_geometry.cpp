@@ -119,11 +119,11 @@ Rect bounds_of(const PolygonWithHoles& polygon) {
   return b;
 }
 
-Eigen::Vector2d LayoutFrame::to_frame(const Eigen::Vector2d& p) const {
-  const double c = std::cos(theta_rad), s = std::sin(theta_rad);
-  const Eigen::Vector2d d = p - pivot;
-  return {c * d.x() + s * d.y(), -s * d.x() + c * d.y()};
+LayoutFrame::ToFrame LayoutFrame::to_frame_map() const {
+  return {std::cos(theta_rad), std::sin(theta_rad), pivot};
 }
+
+Eigen::Vector2d LayoutFrame::to_frame(const Eigen::Vector2d& p) const { return to_frame_map()(p); }
 
 Eigen::Vector2d LayoutFrame::to_layer(const Eigen::Vector2d& q) const {
   const double c = std::cos(theta_rad), s = std::sin(theta_rad);
@@ -131,11 +131,12 @@ Eigen::Vector2d LayoutFrame::to_layer(const Eigen::Vector2d& q) const {
 }
 
 PolygonWithHoles LayoutFrame::to_frame(const PolygonWithHoles& polygon) const {
+  const ToFrame map = to_frame_map();
   PolygonWithHoles out;
-  for (const auto& p : polygon.outer) out.outer.push_back(to_frame(p));
+  for (const auto& p : polygon.outer) out.outer.push_back(map(p));
   for (const auto& hole : polygon.holes) {
     Ring2d r;
-    for (const auto& p : hole) r.push_back(to_frame(p));
+    for (const auto& p : hole) r.push_back(map(p));
     out.holes.push_back(std::move(r));
   }
   return out;

@@ -54,8 +54,20 @@ struct FrameBox {
 
 /// The frame in which a component's layout is axis-aligned: p_frame = R(-theta) (p_layer - pivot).
 struct LayoutFrame {
+  /// The map from layer into frame coordinates with the turn's cosine and sine computed once: for
+  /// loops over many points (to_frame(p) is this map built for one point).
+  struct ToFrame {
+    double cos_theta = 1.0, sin_theta = 0.0;
+    Eigen::Vector2d pivot = Eigen::Vector2d::Zero();
+    [[nodiscard]] Eigen::Vector2d operator()(const Eigen::Vector2d& p) const {
+      const Eigen::Vector2d d = p - pivot;
+      return {cos_theta * d.x() + sin_theta * d.y(), -sin_theta * d.x() + cos_theta * d.y()};
+    }
+  };
+
   double theta_rad = 0.0;  ///< orientation of the layout mod 90 deg, in [0, pi/2)
   Eigen::Vector2d pivot = Eigen::Vector2d::Zero();
+  [[nodiscard]] ToFrame to_frame_map() const;
   [[nodiscard]] Eigen::Vector2d to_frame(const Eigen::Vector2d& p) const;
   [[nodiscard]] Eigen::Vector2d to_layer(const Eigen::Vector2d& q) const;
   [[nodiscard]] PolygonWithHoles to_frame(const PolygonWithHoles& polygon) const;

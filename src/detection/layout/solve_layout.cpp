@@ -100,7 +100,7 @@ LayoutResult without_layer(const LayerResult& layer) {
 
 LayerEvidence build_layer_evidence(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                                    const SeamParams& params) {
-  return {build_seam_evidence(frame, cloud, layer, params), build_layer_rim(frame, cloud, layer)};
+  return {build_seam_evidence(frame, cloud, layer, params), build_layer_rim(frame, cloud, layer), {}, 0.0};
 }
 
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
@@ -121,9 +121,11 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
   // border can have boxes going on unseen.
   const LayerDiagnostics& diag = layer.diagnostics;
   const bool may_go_on = diag.unobserved_outline_fraction > 0.0 || diag.touches_image_border;
-  const LayerSurroundings around = params.completion.unseen_min_fraction > 0.0 && may_go_on
-                                       ? build_layer_surroundings(frame, cloud, layer, max_long)
-                                       : LayerSurroundings{};
+  const bool completes = params.completion.unseen_min_fraction > 0.0 && may_go_on;
+  const bool shared = completes && evidence.around_reach_m >= max_long;
+  const LayerSurroundings own =
+      completes && !shared ? build_layer_surroundings(frame, cloud, layer, max_long) : LayerSurroundings{};
+  const LayerSurroundings& around = shared ? evidence.around : own;
   LayoutParams p = params;
   if (p.search.outline_tolerance_m <= 0.0) {
     p.search.outline_tolerance_m = p.search.outline_tolerance_pitches * layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);

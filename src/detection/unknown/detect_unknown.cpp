@@ -230,7 +230,13 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
     d.formats_measured = true;
     return d;
   }
-  const LayerEvidence evidence = build_layer_evidence(frame, workspace.cloud, layer, params.layout.seams);
+  LayerEvidence evidence = build_layer_evidence(frame, workspace.cloud, layer, params.layout.seams);
+  const LayerDiagnostics& diag = layer.diagnostics;
+  if (params.layout.completion.unseen_min_fraction > 0.0 &&
+      (diag.unobserved_outline_fraction > 0.0 || diag.touches_image_border)) {  // boxes may go on unseen
+    evidence.around = build_layer_surroundings(frame, workspace.cloud, layer, range.long_max_m);
+    evidence.around_reach_m = range.long_max_m;
+  }
   const std::vector<SizeCandidate> candidates = candidate_sizes(layer, evidence.seams, range, unknown);
   const SharedLayer shared{frame, layer, evidence, workspace};
 

@@ -85,11 +85,12 @@ std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
                                          const RefineContext& ctx) {
   std::vector<BoxEvidence> ev = boxes_in_frame(idx, boxes, cf, ctx);
   stretch_to_outline(bounds_of(cf.polygon), ctx.window_m, ctx.params.refine.max_oversize, ev);
+  const LayoutFrame::ToFrame to_frame = cf.frame.to_frame_map();
   std::vector<Eigen::Vector3d> rim_frame;  // the whole rim in this component's frame
   if (ctx.rim != nullptr) {
     rim_frame.reserve(ctx.rim->size());
     for (const RimPixel& r : *ctx.rim) {
-      const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(r.at_m.cast<double>()));
+      const Eigen::Vector2d q = to_frame(Eigen::Vector2d(r.at_m.cast<double>()));
       rim_frame.emplace_back(q.x(), q.y(), static_cast<double>(r.top_share));
     }
   }
@@ -106,7 +107,7 @@ std::vector<BoxEvidence> gather_evidence(const std::vector<std::size_t>& idx,
     const Eigen::Vector2d at = cf.frame.to_layer(e.jb.center);
     ctx.grid.visit(at.x() - reach_x, at.y() - reach_y, at.x() + reach_x, at.y() + reach_y,
                    [&](const Eigen::Vector2f& p) {
-                     const Eigen::Vector2d q = cf.frame.to_frame(Eigen::Vector2d(p.cast<double>()));
+                     const Eigen::Vector2d q = to_frame(Eigen::Vector2d(p.cast<double>()));
                      const Eigen::Vector2d d = (q - e.jb.center).cwiseAbs();
                      if (d.x() > e.jb.half.x() + collect || d.y() > e.jb.half.y() + collect) return;
                      e.points.push_back(q);

@@ -324,6 +324,10 @@ LayoutResult refine_layout(const LayoutResult& found, const LayerResult& layer,
 struct LayerEvidence {
   SeamEvidence seams;
   std::vector<RimPixel> rim;
+  /// The layer's surroundings out to around_reach_m, for layouts of boxes no longer than that
+  /// (solve_layout builds its own for longer boxes, or when around_reach_m is 0).
+  LayerSurroundings around;
+  double around_reach_m = 0.0;
 };
 
 /// build_seam_evidence + build_layer_rim.
