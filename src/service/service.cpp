@@ -16,6 +16,7 @@
 #include "drift_keeper.hpp"
 #include "health_monitor.hpp"
 #include "pick_check_answer.hpp"
+#include "recipe_detection.hpp"
 #include "result_record.hpp"
 #include "result_recording.hpp"
 #include "shadow.hpp"
@@ -33,12 +34,6 @@ modbus::ServerOptions server_options(const Config& config) {
   o.handshake.initial_recipe = static_cast<std::uint16_t>(config.pipeline.default_recipe);
   o.log = [](const std::string& line) { spdlog::info("modbus: {}", line); };
   return o;
-}
-
-const Recipe* find_recipe(const Config& config, int number) {
-  for (const auto& r : config.recipes)
-    if (r.number == number) return &r;
-  return nullptr;
 }
 
 /// A box of the shadow's result counts as moved beyond this centre distance [mm].
@@ -151,6 +146,7 @@ class Service::Impl {
     h.triggers = triggers_.load();
     h.results = results_.load();
     h.failures = failures_.load();
+    h.warm_up_ms = warm_up_ms_.load();
     h.modbus_port = server_.port();
     h.modbus_connections = server_.stats().open_connections;
     if (recording_) {
@@ -214,12 +210,17 @@ class Service::Impl {
   }
 
   void pipeline_main() {
+    int warm_up_tries = 0;
     while (running_) {
       mark(pipeline_alive_);
       try {
         if (reload_health_.exchange(false)) configure_health(*config());
         std::optional<modbus::HandshakeEvent> event = server_.wait_event(200ms);
-        if (!event) continue;
+        if (!event) {
+          if (wants_warm_up(warm_up_tries++))
+            warm_up_ms_.store(warm_up(*acquisition_, *config(), workspace_));
+          continue;
+        }
         if (event->kind == modbus::EventKind::kSaveSnapshot) {
           if (recording_) recording_->ask();
           continue;
@@ -235,6 +236,15 @@ class Service::Impl {
         failures_.fetch_add(1);
       }
     }
+  }
+
+  // The warm-up (recipe_detection.hpp) runs while no trigger waits, once the camera is up, before
+  // the first trigger; a few tries. Not on a replay camera: it plays its recording one frame per
+  // trigger, and the warm-up would take the first.
+  bool wants_warm_up(int tries) const {
+    constexpr int kMaxTries = 3;
+    return tries < kMaxTries && warm_up_ms_.load() < 0.0 && triggers_.load() == 0 &&
+           config()->camera.driver != "replay" && acquisition_->camera().camera_ok();
   }
 
   // A Trigger runs a detection; a PickCheck checks the result in the block against a new frame.
@@ -332,12 +342,8 @@ class Service::Impl {
 
   void run_detection(const Config& cfg, const Recipe& recipe, const Frame& frame,
                      modbus::ResultRecord& record, ResultSnapshot& snapshot) {
-    std::vector<BoxFormat> formats;
-    for (int index : recipe.formats) formats.push_back(cfg.formats[static_cast<std::size_t>(index)]);
     const auto t0 = Clock::now();
-    Detection detection = recipe.size_range
-                              ? detect_unknown_cartons(frame, *recipe.size_range, cfg.detection, workspace_)
-                              : detect(frame, formats, cfg.detection, workspace_);
+    Detection detection = detect_recipe(cfg, recipe, frame, workspace_);
     if (detection.status == DetectionStatus::kRecipeMismatch) {  // which recipe the frame shows
       detection.recipe_check.best_recipe =
           best_fitting_recipe(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace_);
@@ -439,6 +445,7 @@ class Service::Impl {
   std::atomic<bool> frames_have_base_{false};  ///< the last frame came with camera_to_base
   std::atomic<Clock::duration::rep> pipeline_alive_{0};
   std::atomic<std::uint64_t> triggers_{0}, results_{0}, failures_{0};
+  std::atomic<double> warm_up_ms_{-1.0};  ///< ServiceHealth::warm_up_ms
   mutable std::mutex latest_mutex_;
   std::shared_ptr<const ResultSnapshot> latest_;
 };

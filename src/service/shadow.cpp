@@ -9,6 +9,8 @@
 #include "palletd/results/detection_json.hpp"
 #include "palletd/results/overlay.hpp"
 
+#include "recipe_detection.hpp"
+
 namespace palletd {
 
 ShadowRunner::ShadowRunner(std::shared_ptr<const Config> shadow, std::optional<RecorderOptions> record,
@@ -72,19 +74,16 @@ void ShadowRunner::run() {
 }
 
 void ShadowRunner::compare(const ResultSnapshot& live, const Config& shadow) {
-  const Recipe* recipe = nullptr;
-  for (const Recipe& r : shadow.recipes)
-    if (r.number == live.recipe) recipe = &r;
+  const Recipe* recipe = find_recipe(shadow, live.recipe);
   if (recipe == nullptr) {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.skipped;
     return;
   }
-  std::vector<BoxFormat> formats;
-  for (int index : recipe->formats) formats.push_back(shadow.formats[static_cast<std::size_t>(index)]);
   Frame frame = *live.frame;
   if (shadow.T_base_camera) frame.T_base_camera = shadow.T_base_camera;
-  const Detection result = detect(frame, formats, shadow.detection);
+  DetectionWorkspace workspace;
+  const Detection result = detect_recipe(shadow, *recipe, frame, workspace);
   const DetectionDifference diff = compare_detections(live.detection, result, moved_mm_);
   if (!diff.any()) {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -143,6 +143,8 @@ Json status_json(const ServiceHealth& health, const modbus::RegisterImage& image
   counters["camera_restarts"] = health.camera_restarts;
   counters["resent_packets"] = health.resent_packets;
   counters["window"] = figures.window;
+  counters["warm_up_ms"] =
+      optional_number(health.warm_up_ms >= 0.0 ? std::optional<double>(health.warm_up_ms) : std::nullopt);
   counters["processing_ms"] = {{"last", st.processing_ms},
                                {"p50", optional_number(figures.processing_p50_ms)},
                                {"p99", optional_number(figures.processing_p99_ms)}};

@@ -210,6 +210,16 @@ TEST_CASE("GigE camera vanishes or stalls or sends frames that do not fit: palle
   };
 
   REQUIRE(wait_until(plc, camera_ok, scaled(10s)));
+  // Once the camera is up, before the first trigger, palletd runs one detection on a frame and
+  // discards it: the PLC's first trigger does not pay the process's first-use allocations.
+  bool warmed = false;
+  for (const auto until = std::chrono::steady_clock::now() + scaled(10s);
+       !warmed && std::chrono::steady_clock::now() < until; std::this_thread::sleep_for(50ms))
+    warmed = daemon.log_text().find("warm-up detection on the first frame") != std::string::npos;
+  {
+    INFO(daemon.log_text());
+    CHECK(warmed);
+  }
   // The first frames of a freshly started stream may miss the 800 ms frame timeout on a loaded
   // machine (the asan stage of CI beside other work): a PLC triggers again, and after three
   // timeouts in a row palletd restarts the acquisition (as in the stall section below).

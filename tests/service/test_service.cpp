@@ -232,6 +232,26 @@ TEST_CASE("a size-range recipe answers with format 0xFFFF and each box's measure
   service.stop();
 }
 
+TEST_CASE("a shadow configuration with a size-range recipe detects with the range as the live one does") {
+  TempFrames frames({"12_block_300x200_holes_o3d303"});
+  palletd::Config config = demo_config(frames.dir);
+  config.recipes.push_back({90, "unknown cartons", {}, palletd::SizeRange{0.2, 0.8, 0.15, 0.6}});
+  config.pipeline.detection_timeout_ms = 120000.0;  // room for the sanitizer builds
+  config.shadow = std::make_shared<palletd::Config>(config);
+  palletd::Service service(config);
+  REQUIRE(service.start().ok());
+  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
+  REQUIRE(plc.connect().ok());
+  REQUIRE(plc.trigger(90, 1, 120s).ok());
+  for (int i = 0; i < 12000 && service.health().shadow_runs + service.health().shadow_skipped < 1; ++i)
+    std::this_thread::sleep_for(10ms);
+  const palletd::ServiceHealth h = service.health();
+  CHECK(h.shadow_runs == 1);
+  INFO(h.last_shadow_difference);
+  CHECK(h.shadow_disagreements == 0);
+  service.stop();
+}
+
 TEST_CASE("a camera that is gone fails the trigger, drops CameraOK, and recovers when it returns") {
   TempFrames frames(bundled_stems(1));
   palletd::Config config = demo_config(frames.dir);

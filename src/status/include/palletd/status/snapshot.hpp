@@ -76,6 +76,10 @@ struct ServiceHealth {
   std::uint64_t shadow_skipped = 0;         ///< frames not run (shadow busy, recipe missing)
   std::string last_shadow_difference;       ///< "trigger 12: boxes 12 -> 11"; "" before the first
   CellHealth cell_health;                   ///< health window and drift (registers 146..155)
+  /// The detection run at start-up on the camera's first frame (result discarded) so that the
+  /// PLC's first trigger does not pay the process's first-use allocations [ms]; -1 before it ran
+  /// or when no frame came in time.
+  double warm_up_ms = -1.0;
 };
 
 }  // namespace palletd
