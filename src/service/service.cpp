@@ -217,8 +217,10 @@ class Service::Impl {
         if (reload_health_.exchange(false)) configure_health(*config());
         std::optional<modbus::HandshakeEvent> event = server_.wait_event(200ms);
         if (!event) {
-          if (wants_warm_up(warm_up_tries++))
+          if (wants_warm_up(warm_up_tries)) {  // a try counts only once the camera is up
+            ++warm_up_tries;
             warm_up_ms_.store(warm_up(*acquisition_, *config(), workspace_));
+          }
           continue;
         }
         if (event->kind == modbus::EventKind::kSaveSnapshot) {
