@@ -103,6 +103,12 @@ LayerEvidence build_layer_evidence(const Frame& frame, const OrganizedCloud& clo
   return {build_seam_evidence(frame, cloud, layer, params), build_layer_rim(frame, cloud, layer), {}, 0.0};
 }
 
+bool completes_unseen(const LayerResult& layer, const CompletionParams& params) {
+  const LayerDiagnostics& diag = layer.diagnostics;
+  return params.unseen_min_fraction > 0.0 &&
+         (diag.unobserved_outline_fraction > 0.0 || diag.touches_image_border);
+}
+
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                           const std::vector<BoxFormat>& formats, const LayoutParams& params) {
   if (layer.status != DetectionStatus::kOk) return without_layer(layer);
@@ -117,11 +123,7 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
   const SeamEvidence& seams = evidence.seams;
   double max_long = 0.0;
   for (const auto& f : formats) max_long = std::max(max_long, f.long_m);
-  // Only a layer whose outline runs somewhere along pixels without depth or along the image
-  // border can have boxes going on unseen.
-  const LayerDiagnostics& diag = layer.diagnostics;
-  const bool may_go_on = diag.unobserved_outline_fraction > 0.0 || diag.touches_image_border;
-  const bool completes = params.completion.unseen_min_fraction > 0.0 && may_go_on;
+  const bool completes = completes_unseen(layer, params.completion);
   const bool shared = completes && evidence.around_reach_m >= max_long;
   const LayerSurroundings own =
       completes && !shared ? build_layer_surroundings(frame, cloud, layer, max_long) : LayerSurroundings{};

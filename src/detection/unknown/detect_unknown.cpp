@@ -231,9 +231,7 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
     return d;
   }
   LayerEvidence evidence = build_layer_evidence(frame, workspace.cloud, layer, params.layout.seams);
-  const LayerDiagnostics& diag = layer.diagnostics;
-  if (params.layout.completion.unseen_min_fraction > 0.0 &&
-      (diag.unobserved_outline_fraction > 0.0 || diag.touches_image_border)) {  // boxes may go on unseen
+  if (completes_unseen(layer, params.layout.completion)) {
     evidence.around = build_layer_surroundings(frame, workspace.cloud, layer, range.long_max_m);
     evidence.around_reach_m = range.long_max_m;
   }

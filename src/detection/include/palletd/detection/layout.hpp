@@ -200,6 +200,11 @@ struct LayerSurroundings {
   [[nodiscard]] bool seen_within(const Eigen::Vector2d& p_m, const Eigen::Vector2d& dir, double reach_m) const;
 };
 
+/// Whether the layout stage completes boxes where the depth ends on this layer: completion is on
+/// and the outline runs somewhere along pixels without depth or along the image border (only
+/// there can boxes go on unseen). The surroundings are read only then.
+bool completes_unseen(const LayerResult& layer, const CompletionParams& params);
+
 /// The layer's surroundings within reach_m of its outline (cells outside the image: unseen).
 /// A pixel is at the layer's level within max(15 mm, the layer's passthrough band) of the plane,
 /// below it further down, unseen without depth or further up. Empty when the layer is not ok.
