@@ -16,6 +16,10 @@ const Recipe* find_recipe(const Config& config, int number) {
   return nullptr;
 }
 
+void apply_calibration(const Config& config, Frame& frame) {
+  if (config.T_base_camera) frame.T_base_camera = config.T_base_camera;
+}
+
 Detection detect_recipe(const Config& config, const Recipe& recipe, const Frame& frame,
                         DetectionWorkspace& workspace) {
   if (recipe.size_range)
@@ -36,7 +40,7 @@ double warm_up(Acquisition& acquisition, const Config& config, DetectionWorkspac
     return -1.0;
   }
   Frame frame = std::move(grabbed).value();
-  if (config.T_base_camera) frame.T_base_camera = config.T_base_camera;
+  apply_calibration(config, frame);
   const auto t0 = Clock::now();
   const Detection detection = detect_recipe(config, *recipe, frame, workspace);
   const double elapsed_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

@@ -13,6 +13,10 @@ namespace palletd {
 /// The configured recipe with this number; null when there is none.
 const Recipe* find_recipe(const Config& config, int number);
 
+/// The config's camera_to_base, when it gives one, replaces the frame's own (a recording's or a
+/// driver's): every detection, check and drift reference of the service is in the config's base.
+void apply_calibration(const Config& config, Frame& frame);
+
 /// detect() with the recipe's formats, or detect_unknown_cartons() when it gives a size range.
 Detection detect_recipe(const Config& config, const Recipe& recipe, const Frame& frame,
                         DetectionWorkspace& workspace);

@@ -284,7 +284,7 @@ class Service::Impl {
              "frame: " + grabbed.error());
       } else {
         Frame f = std::move(grabbed).value();
-        if (cfg->T_base_camera) f.T_base_camera = cfg->T_base_camera;
+        apply_calibration(*cfg, f);
         frames_have_base_ = f.T_base_camera.has_value();
         frame = std::make_shared<const Frame>(std::move(f));
         if (is_check) {
@@ -416,7 +416,7 @@ class Service::Impl {
       return;
     }
     Frame frame = std::move(grabbed).value();
-    if (cfg->T_base_camera) frame.T_base_camera = cfg->T_base_camera;
+    apply_calibration(*cfg, frame);
     if (Status set = drift_.set_reference(frame); !set) {
       spdlog::error("drift reference not set: {}", set.error());
       return;

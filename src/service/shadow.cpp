@@ -81,7 +81,7 @@ void ShadowRunner::compare(const ResultSnapshot& live, const Config& shadow) {
     return;
   }
   Frame frame = *live.frame;
-  if (shadow.T_base_camera) frame.T_base_camera = shadow.T_base_camera;
+  apply_calibration(shadow, frame);
   DetectionWorkspace workspace;
   const Detection result = detect_recipe(shadow, *recipe, frame, workspace);
   const DetectionDifference diff = compare_detections(live.detection, result, moved_mm_);

@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "evidence/seam_raster.hpp"
 #include "layer_raster.hpp"
 #include "layout_internal.hpp"
 
@@ -267,10 +268,7 @@ AreaOracle::AreaOracle(const PolygonWithHoles& frame_polygon, AreaMethod method,
   for (const auto& h : frame_polygon.holes) holes.push_back(to_pts(h));
   if (!holes.empty()) cv::fillPoly(mask, holes, cv::Scalar(0), cv::LINE_8, kShift);
   if (grow > 0) dilate_square(cells, w_, h_, grow);
-  cv::Mat sat;
-  cv::integral(mask, sat, CV_64F);
-  sat_.assign(reinterpret_cast<const double*>(sat.data),
-              reinterpret_cast<const double*>(sat.data) + sat.total());
+  integral_into(mask, sat_);
 }
 
 double AreaOracle::area(const Rect& r) const {

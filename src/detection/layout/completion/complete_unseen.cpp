@@ -5,7 +5,6 @@
 // seen edge of the outline (the view beyond it shows the surface lower or another box) or on a
 // neighbour, and its part off the layer unseen rather than seen lower.
 #include <algorithm>
-#include <array>
 #include <cmath>
 
 #include <opencv2/core.hpp>
@@ -42,13 +41,16 @@ class SurroundTable {
     cv::Mat dst;
     cv::warpAffine(src, dst, m, cv::Size(w_, h_), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
                    cv::BORDER_CONSTANT, cv::Scalar(LayerSurroundings::kUnseen));
-    for (std::size_t label = 0; label < 3; ++label) {
-      cv::Mat is_label = dst == static_cast<int>(label);
-      cv::Mat sat;
-      cv::integral(is_label / 255, sat, CV_64F);
-      sat_[label].assign(reinterpret_cast<const double*>(sat.data),
-                         reinterpret_cast<const double*>(sat.data) + sat.total());
+    // One channel per label (1 where the cell has it), summed in one pass: cell counts, exact.
+    cv::Mat one_hot(dst.size(), CV_8UC3, cv::Scalar::all(0));
+    for (int row = 0; row < dst.rows; ++row) {
+      const std::uint8_t* label = dst.ptr<std::uint8_t>(row);
+      auto* out = one_hot.ptr<cv::Vec3b>(row);
+      for (int col = 0; col < dst.cols; ++col) {
+        if (label[col] < 3) out[col][label[col]] = 1;
+      }
     }
+    cv::integral(one_hot, sat_, CV_32S);
   }
   [[nodiscard]] bool empty() const { return w_ == 0; }
   /// Area [m^2] of the rectangle's cells with that label (whole cells; outside the table: unseen).
@@ -61,11 +63,7 @@ class SurroundTable {
         static_cast<double>(std::max(0, ix1 - ix0)) * std::max(0, iy1 - iy0) * cell_ * cell_;
     double n = 0.0;
     if (ix1 > ix0 && iy1 > iy0) {
-      const auto W = static_cast<std::size_t>(w_ + 1);
-      const std::vector<double>& t = sat_[static_cast<std::size_t>(label)];
-      auto at = [&](int row, int col) {
-        return t[static_cast<std::size_t>(row) * W + static_cast<std::size_t>(col)];
-      };
+      auto at = [&](int row, int col) { return sat_.ptr<cv::Vec3i>(row)[col][static_cast<int>(label)]; };
       n = at(iy1, ix1) - at(iy0, ix1) - at(iy1, ix0) + at(iy0, ix0);
     }
     const double a = n * cell_ * cell_;
@@ -76,7 +74,7 @@ class SurroundTable {
  private:
   double x0_ = 0, y0_ = 0, cell_ = 0;
   int w_ = 0, h_ = 0;
-  std::array<std::vector<double>, 3> sat_;
+  cv::Mat sat_;  ///< CV_32SC3: per label, the summed-area table of its cells (w_+1 x h_+1)
 };
 
 /// A box that could lie over this share of uncovered layer and the unseen beyond it, but too

@@ -60,9 +60,7 @@ SeamLikelihood::SeamLikelihood(const SeamEvidence& seams, const LayoutFrame& fra
   // averaging along the predicted lines.
   tape_ = TapeEvidence(seams, frame, x0_, y0_, w_, h_);
   const cv::Mat dst = seams_in_frame(seams, frame, x0_, y0_, w_, h_);
-  cv::Mat sat;
-  cv::integral(dst, sat, CV_64F);
-  sat_.assign(reinterpret_cast<const double*>(sat.data), reinterpret_cast<const double*>(sat.data) + sat.total());
+  integral_into(dst, sat_);
 }
 
 double SeamLikelihood::strip_mean(double x0, double y0, double x1, double y1) const {

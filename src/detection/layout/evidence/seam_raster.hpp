@@ -21,6 +21,10 @@ cv::Mat seams_in_frame(const SeamEvidence& seams, const LayoutFrame& frame, doub
 cv::Mat raster_in_frame(const std::vector<float>& values, const SeamEvidence& seams, const LayoutFrame& frame,
                         double x0_m, double y0_m, int width, int height);
 
+/// The summed-area table of a one-channel image, (rows + 1) x (cols + 1) doubles row-major,
+/// computed straight into `sat` (its buffer reused; no copy of a table that can be megabytes).
+void integral_into(const cv::Mat& image, std::vector<double>& sat);
+
 /// Sum of a (w + 1) x (h + 1) summed-area table over the fractional cell rectangle
 /// [fx0, fx1) x [fy0, fy1) (inside 0..w, 0..h), read bilinearly: exact for values constant per cell.
 double sat_sum_bilinear(const std::vector<double>& sat, int w, int h, double fx0, double fy0, double fx1, double fy1);

@@ -1,6 +1,7 @@
 // SeamTable (layout_internal.hpp) and the seam raster turned into a layout frame (seam_raster.hpp).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -32,6 +33,16 @@ cv::Mat raster_in_frame(const std::vector<float>& values, const SeamEvidence& se
   cv::warpAffine(src, dst, m, cv::Size(width, height), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                  cv::BORDER_CONSTANT, cv::Scalar(0));
   return dst;
+}
+
+void integral_into(const cv::Mat& image, std::vector<double>& sat) {
+  const int rows = image.rows + 1, cols = image.cols + 1;
+  sat.resize(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols));
+  cv::Mat table(rows, cols, CV_64F, sat.data());
+  cv::integral(image, table, CV_64F);  // fits the given buffer: written in place
+  if (table.data != reinterpret_cast<std::uint8_t*>(sat.data())) {
+    sat.assign(table.ptr<double>(), table.ptr<double>() + table.total());
+  }
 }
 
 double sat_sum_bilinear(const std::vector<double>& sat, int w, int h, double fx0, double fy0, double fx1, double fy1) {
@@ -70,19 +81,14 @@ SeamTable::SeamTable(const SeamEvidence& seams, const LayoutFrame& frame, const 
   line = (line - 0.3) * (1.0 / 0.4);
   cv::threshold(line, line, 1.0, 1.0, cv::THRESH_TRUNC);
   cv::threshold(line, line, 0.0, 0.0, cv::THRESH_TOZERO);
-  cv::Mat sat;
-  cv::integral(line, sat, CV_64F);
-  sat_.assign(reinterpret_cast<const double*>(sat.data),
-              reinterpret_cast<const double*>(sat.data) + sat.total());
+  integral_into(line, sat_);
   // Edge support: a seam line within a few millimetres of a box edge supports it (gaps have
   // width); from the line-filtered raster, so that scattered dropouts and noise next to an edge
   // do not count as a seam along it.
   const int d = std::max(3, static_cast<int>(std::lround(0.008 / cell_)) * 2 + 1);
   cv::Mat wide;
   cv::dilate(line, wide, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(d, d)));
-  cv::integral(wide, sat, CV_64F);
-  sat_support_.assign(reinterpret_cast<const double*>(sat.data),
-                      reinterpret_cast<const double*>(sat.data) + sat.total());
+  integral_into(wide, sat_support_);
 }
 
 double SeamTable::sum_cells(const std::vector<double>& sat, const Rect& r, double* cells) const {

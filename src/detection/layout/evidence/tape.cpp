@@ -55,13 +55,8 @@ TapeEvidence::TapeEvidence(const SeamEvidence& seams, const LayoutFrame& frame, 
   // Intensity x seen and seen, each interpolated: their ratio is the mean over the tops seen.
   const cv::Mat tops = raster_in_frame(seams.tops, seams, frame, x0_m, y0_m, width, height);
   const cv::Mat seen = raster_in_frame(seams.tops_seen, seams, frame, x0_m, y0_m, width, height);
-  cv::Mat sat;
-  cv::integral(tops, sat, CV_64F);
-  sum_.assign(reinterpret_cast<const double*>(sat.data),
-              reinterpret_cast<const double*>(sat.data) + sat.total());
-  cv::integral(seen, sat, CV_64F);
-  seen_.assign(reinterpret_cast<const double*>(sat.data),
-               reinterpret_cast<const double*>(sat.data) + sat.total());
+  integral_into(tops, sum_);
+  integral_into(seen, seen_);
 }
 
 double TapeEvidence::mean(double x0, double y0, double x1, double y1, double* seen_share) const {

@@ -1,0 +1,76 @@
+// Summed-area tables computed into the caller's vector (integral_into) and read bilinearly
+// (sat_sum_bilinear), as the seam table, the tape evidence and the area oracle read them.
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include <catch2/catch.hpp>
+#include <opencv2/core.hpp>
+
+#include "evidence/seam_raster.hpp"
+
+using namespace palletd::layout_detail;
+
+namespace {
+
+/// A w x h image of distinct values, so that a sum over the wrong cells shows.
+cv::Mat ramp(int w, int h, int type) {
+  cv::Mat image(h, w, type);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const int value = (x * 7 + y * 13) % 11;
+      if (type == CV_8U)
+        image.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(value);
+      else
+        image.at<float>(y, x) = 0.25F * static_cast<float>(value);
+    }
+  }
+  return image;
+}
+
+double loop_sum(const cv::Mat& image, int x0, int y0, int x1, int y1) {
+  double sum = 0.0;
+  for (int y = y0; y < y1; ++y) {
+    for (int x = x0; x < x1; ++x) {
+      sum += image.type() == CV_8U ? image.at<std::uint8_t>(y, x) : image.at<float>(y, x);
+    }
+  }
+  return sum;
+}
+
+}  // namespace
+
+TEST_CASE("a summed-area table written into a reused vector sums every whole-cell rectangle as a loop does",
+          "[layout][seams]") {
+  const int w = 9, h = 6;
+  for (const int type : {CV_8U, CV_32F}) {
+    const cv::Mat image = ramp(w, h, type);
+    // The vector held a larger table and other values before: they must not leak through.
+    std::vector<double> sat(500, -3.0);
+    integral_into(image, sat);
+    REQUIRE(sat.size() == static_cast<std::size_t>((w + 1) * (h + 1)));
+    for (int y0 = 0; y0 < h; ++y0) {
+      for (int x0 = 0; x0 < w; ++x0) {
+        for (const auto& [x1, y1] : {std::pair{x0 + 1, y0 + 1}, std::pair{w, h}, std::pair{x0 + 2, h}}) {
+          if (x1 > w || y1 > h) continue;
+          CHECK(sat_sum_bilinear(sat, w, h, x0, y0, x1, y1) == Approx(loop_sum(image, x0, y0, x1, y1)));
+        }
+      }
+    }
+    // A smaller table after it: the vector shrinks to the new size.
+    integral_into(image(cv::Rect(0, 0, 3, 2)).clone(), sat);
+    CHECK(sat.size() == 12U);
+    CHECK(sat.back() == Approx(loop_sum(image, 0, 0, 3, 2)));
+  }
+}
+
+TEST_CASE("a bilinear read of a summed-area table takes the covered share of each cell", "[layout][seams]") {
+  cv::Mat image(2, 2, CV_32F, cv::Scalar(0));
+  image.at<float>(0, 0) = 4.0F;
+  image.at<float>(1, 1) = 8.0F;
+  std::vector<double> sat;
+  integral_into(image, sat);
+  // Half of the first cell across, the whole of it down: 2; a quarter of each cell: 3.
+  CHECK(sat_sum_bilinear(sat, 2, 2, 0.5, 0.0, 1.0, 1.0) == Approx(2.0));
+  CHECK(sat_sum_bilinear(sat, 2, 2, 0.5, 0.5, 1.5, 1.5) == Approx(0.25 * 4.0 + 0.25 * 8.0));
+}
