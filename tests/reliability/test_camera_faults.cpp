@@ -86,7 +86,9 @@ void fill(ArvBuffer* buffer, void* /*data*/, guint32, guint32, ArvPixelFormat) {
 struct FakeCamera {
   std::string xml;
   ArvGvFakeCamera* gv = nullptr;
-  explicit FakeCamera(std::string xml_path) : xml(std::move(xml_path)) { power_on(); }
+  explicit FakeCamera(std::string xml_path, bool powered = true) : xml(std::move(xml_path)) {
+    if (powered) power_on();
+  }
   ~FakeCamera() { power_off(); }
   FakeCamera(const FakeCamera&) = delete;
   FakeCamera& operator=(const FakeCamera&) = delete;
@@ -152,7 +154,8 @@ TEST_CASE("GigE camera vanishes or stalls or sends frames that do not fit: palle
     return;
   }
   TempDir dir("camera");
-  FakeCamera fake(genicam_xml(dir.path));
+  // The camera comes up after palletd (powered with the cell, it boots slower than the PC).
+  FakeCamera fake(genicam_xml(dir.path), /*powered=*/false);
   const int port = free_port();
   const auto config = write_config(
       dir.path,
@@ -209,9 +212,14 @@ TEST_CASE("GigE camera vanishes or stalls or sends frames that do not fit: palle
     return e == ErrorCode::kCameraDisconnected || e == ErrorCode::kFrameTimeout;
   };
 
+  // 1.5 s without a camera: palletd keeps trying to open it, and its warm-up waits for it.
+  std::this_thread::sleep_for(1500ms);
+  CHECK_FALSE(camera_ok(plc));
+  fake.power_on();
   REQUIRE(wait_until(plc, camera_ok, scaled(10s)));
   // Once the camera is up, before the first trigger, palletd runs one detection on a frame and
-  // discards it: the PLC's first trigger does not pay the process's first-use allocations.
+  // discards it: the PLC's first trigger does not pay the process's first-use allocations. The
+  // time without a camera does not use up its tries.
   bool warmed = false;
   for (const auto until = std::chrono::steady_clock::now() + scaled(10s);
        !warmed && std::chrono::steady_clock::now() < until; std::this_thread::sleep_for(50ms))
