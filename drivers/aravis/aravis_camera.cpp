@@ -2,11 +2,13 @@
 // configuring the camera: aravis_camera_open.cpp.
 #include "aravis/aravis_camera.hpp"
 
-#include <arv.h>
-
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <string>
 #include <utility>
+
+#include <arv.h>
 
 #include "aravis/aravis_camera_impl.hpp"
 #include "aravis/depth_convert.hpp"
@@ -128,82 +130,40 @@ Status AravisCamera::probe_control() {
   return {};
 }
 
-Expected<Frame> AravisCamera::do_grab(std::chrono::milliseconds timeout) {
-  if (impl_->control_lost) {
-    mark_faulted();
-    return Error{"aravis: lost the control channel of camera " + impl_->camera_id};
-  }
-  const auto timeout_us = static_cast<guint64>(std::max<std::int64_t>(timeout.count(), 1)) * 1000u;
-  ArvBuffer* buffer = arv_stream_timeout_pop_buffer(impl_->stream.get(), timeout_us);
-  update_stream_counters();
-  if (buffer == nullptr) {
-    count_timeout();
-    ++timeouts_in_row_;
-    Status alive = probe_control();
-    if (!alive) {
-      mark_faulted();
-      return Error{"aravis: camera " + impl_->camera_id + " is gone: " + alive.error()};
-    }
-    if (!trigger_mode_ && timeouts_in_row_ >= options_.timeouts_before_fault) {
-      mark_faulted();
-      return Error{"aravis: camera " + impl_->camera_id + " stopped streaming (" +
-                   std::to_string(timeouts_in_row_) + " timeouts in a row)"};
-    }
-    return Error{"aravis: no frame from camera " + impl_->camera_id + " within " +
-                 std::to_string(timeout.count()) + " ms"};
-  }
-  timeouts_in_row_ = 0;
-  // Give the buffer back to the pool whatever happens below.
-  struct Requeue {
-    ArvStream* stream;
-    ArvBuffer* buffer;
-    ~Requeue() { arv_stream_push_buffer(stream, buffer); }
-  } requeue{impl_->stream.get(), buffer};
+namespace {
 
-  const ArvBufferStatus status = arv_buffer_get_status(buffer);
-  if (status != ARV_BUFFER_STATUS_SUCCESS) {
-    ++incomplete_;
-    return Error{"aravis: incomplete frame " + std::to_string(arv_buffer_get_frame_id(buffer)) +
-                 " from camera " + impl_->camera_id + " (buffer status " +
-                 std::to_string(static_cast<int>(status)) + ")"};
-  }
-  const gint width = arv_buffer_get_image_width(buffer);
-  const gint height = arv_buffer_get_image_height(buffer);
+std::string hex32(unsigned value) {
+  char text[16];
+  std::snprintf(text, sizeof text, "%08x", value);
+  return text;
+}
+
+/// The depth of a complete buffer of the expected size, converted into `frame` (Coord3D_C16 or
+/// Mono16 scaled by the Scan3d parameters, or Coord3D_ABC32f's Z); an error names what is wrong.
+Status take_depth(ArvBuffer* buffer, std::size_t n, const aravis::Scan3dParams& scan3d,
+                  const std::string& camera_id, Frame& frame) {
   const ArvPixelFormat format = arv_buffer_get_image_pixel_format(buffer);
-  if (width != impl_->intrinsics.width || height != impl_->intrinsics.height) {
-    ++incomplete_;
-    return Error{"aravis: frame is " + std::to_string(width) + "x" + std::to_string(height) +
-                 ", expected " + std::to_string(impl_->intrinsics.width) + "x" +
-                 std::to_string(impl_->intrinsics.height)};
-  }
-  const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
   size_t size = 0;
   const void* data = arv_buffer_get_image_data(buffer, &size);
-
-  Frame frame;
-  frame.intrinsics = impl_->intrinsics;
   if (format == ARV_PIXEL_FORMAT_COORD3D_C_16 || format == ARV_PIXEL_FORMAT_MONO_16) {
-    if (size < n * 2) {
-      ++incomplete_;
-      return Error{"aravis: short 16-bit frame (" + std::to_string(size) + " bytes)"};
-    }
-    aravis::convert_c16(data, n, impl_->scan3d, frame);
-  } else if (format == ARV_PIXEL_FORMAT_COORD3D_ABC_32F) {
-    if (size < n * 12) {
-      ++incomplete_;
-      return Error{"aravis: short Coord3D_ABC32f frame (" + std::to_string(size) + " bytes)"};
-    }
-    aravis::convert_abc32f(data, n, impl_->scan3d, frame);
-  } else {
-    ++incomplete_;
-    return Error{"aravis: unsupported pixel format 0x" + [&] {
-      char b[16];
-      std::snprintf(b, sizeof b, "%08x", static_cast<unsigned>(format));
-      return std::string(b);
-    }() + " from camera " + impl_->camera_id};
+    if (size < n * 2) return Error{"aravis: short 16-bit frame (" + std::to_string(size) + " bytes)"};
+    aravis::convert_c16(data, n, scan3d, frame);
+    return {};
   }
+  if (format == ARV_PIXEL_FORMAT_COORD3D_ABC_32F) {
+    if (size < n * 12)
+      return Error{"aravis: short Coord3D_ABC32f frame (" + std::to_string(size) + " bytes)"};
+    aravis::convert_abc32f(data, n, scan3d, frame);
+    return {};
+  }
+  return Error{"aravis: unsupported pixel format 0x" + hex32(static_cast<unsigned>(format)) +
+               " from camera " + camera_id};
+}
 
-  // Intensity / confidence from a second part of a multipart buffer, when there is one.
+/// Intensity / confidence from a later part of a multipart buffer (Mono16 or Mono8 of the depth's
+/// size), when there is one.
+void take_intensity(ArvBuffer* buffer, gint width, gint height, Frame& frame) {
+  const auto n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
   const guint parts = arv_buffer_get_n_parts(buffer);
   for (guint part = 1; part < parts; ++part) {
     if (arv_buffer_get_part_width(buffer, part) != width || arv_buffer_get_part_height(buffer, part) != height) {
@@ -216,21 +176,85 @@ Expected<Frame> AravisCamera::do_grab(std::chrono::milliseconds timeout) {
       frame.intensity.resize(n);
       std::memcpy(frame.intensity.data(), part_data, n * 2);
       frame.intensity_bits = 16;
-      break;
+      return;
     }
     if (pf == ARV_PIXEL_FORMAT_MONO_8 && part_size >= n) {
       const auto* p8 = static_cast<const std::uint8_t*>(part_data);
       frame.intensity.assign(p8, p8 + n);
       frame.intensity_bits = 8;
-      break;
+      return;
     }
   }
+}
 
-  frame.camera_id = impl_->camera_id;
-  frame.sequence = sequence_++;
-  const guint64 system_ns = arv_buffer_get_system_timestamp(buffer);
-  frame.timestamp_ns = static_cast<std::int64_t>(system_ns);
+/// A popped buffer as a frame (without its sequence number), or why it is none: incomplete, of
+/// another size than the camera's, or of a pixel format palletd does not read.
+Expected<Frame> frame_from(ArvBuffer* buffer, const Intrinsics& intrinsics,
+                           const aravis::Scan3dParams& scan3d, const std::string& camera_id) {
+  const ArvBufferStatus status = arv_buffer_get_status(buffer);
+  if (status != ARV_BUFFER_STATUS_SUCCESS) {
+    return Error{"aravis: incomplete frame " + std::to_string(arv_buffer_get_frame_id(buffer)) +
+                 " from camera " + camera_id + " (buffer status " + std::to_string(static_cast<int>(status)) +
+                 ")"};
+  }
+  const gint width = arv_buffer_get_image_width(buffer);
+  const gint height = arv_buffer_get_image_height(buffer);
+  if (width != intrinsics.width || height != intrinsics.height) {
+    return Error{"aravis: frame is " + std::to_string(width) + "x" + std::to_string(height) + ", expected " +
+                 std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height)};
+  }
+  Frame frame;
+  frame.intrinsics = intrinsics;
+  const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  if (Status depth = take_depth(buffer, n, scan3d, camera_id, frame); !depth) return Error{depth.error()};
+  take_intensity(buffer, width, height, frame);
+  frame.camera_id = camera_id;
+  frame.timestamp_ns = static_cast<std::int64_t>(arv_buffer_get_system_timestamp(buffer));
   return frame;
+}
+
+}  // namespace
+
+Expected<Frame> AravisCamera::do_grab(std::chrono::milliseconds timeout) {
+  if (impl_->control_lost) {
+    mark_faulted();
+    return Error{"aravis: lost the control channel of camera " + impl_->camera_id};
+  }
+  const auto timeout_us = static_cast<guint64>(std::max<std::int64_t>(timeout.count(), 1)) * 1000u;
+  ArvBuffer* buffer = arv_stream_timeout_pop_buffer(impl_->stream.get(), timeout_us);
+  update_stream_counters();
+  if (buffer == nullptr) return no_frame(timeout);
+  timeouts_in_row_ = 0;
+  // Give the buffer back to the pool whatever happens below.
+  struct Requeue {
+    ArvStream* stream;
+    ArvBuffer* buffer;
+    ~Requeue() { arv_stream_push_buffer(stream, buffer); }
+  } requeue{impl_->stream.get(), buffer};
+  Expected<Frame> frame = frame_from(buffer, impl_->intrinsics, impl_->scan3d, impl_->camera_id);
+  if (!frame) {
+    ++incomplete_;
+    return frame;
+  }
+  frame->sequence = sequence_++;
+  return frame;
+}
+
+Error AravisCamera::no_frame(std::chrono::milliseconds timeout) {
+  count_timeout();
+  ++timeouts_in_row_;
+  Status alive = probe_control();
+  if (!alive) {
+    mark_faulted();
+    return Error{"aravis: camera " + impl_->camera_id + " is gone: " + alive.error()};
+  }
+  if (!trigger_mode_ && timeouts_in_row_ >= options_.timeouts_before_fault) {
+    mark_faulted();
+    return Error{"aravis: camera " + impl_->camera_id + " stopped streaming (" +
+                 std::to_string(timeouts_in_row_) + " timeouts in a row)"};
+  }
+  return Error{"aravis: no frame from camera " + impl_->camera_id + " within " +
+               std::to_string(timeout.count()) + " ms"};
 }
 
 }  // namespace palletd

@@ -36,6 +36,7 @@ class AravisCamera final : public Camera {
   struct Impl;
   void update_stream_counters();
   Status probe_control();
+  Error no_frame(std::chrono::milliseconds timeout);  ///< do_grab() without a buffer in time
 
   // do_open() in phases (aravis_camera_open.cpp), in the order it calls them.
   Status connect_camera();

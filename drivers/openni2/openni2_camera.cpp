@@ -312,6 +312,47 @@ Expected<Frame> OpenNI2Camera::rewind_and_grab(std::chrono::milliseconds timeout
   return do_grab(timeout);
 }
 
+namespace {
+
+/// The IR frame as the frame's intensity (Gray16 or 8-bit, the depth's size); false when it does
+/// not fit.
+bool take_intensity(const openni::VideoFrameRef& ir, const openni::VideoFrameRef& depth, Frame& frame) {
+  const bool gray16 = ir.getVideoMode().getPixelFormat() == openni::PIXEL_FORMAT_GRAY16;
+  if (ir.getWidth() != depth.getWidth() || ir.getHeight() != depth.getHeight() ||
+      !frame_fits(ir, gray16 ? 2 : 1)) {
+    return false;
+  }
+  if (gray16) {
+    copy_rows<std::uint16_t>(ir, frame.intensity);
+  } else {
+    copy_rows<std::uint8_t>(ir, frame.intensity);
+  }
+  frame.intensity_bits = gray16 ? 16 : 8;
+  return true;
+}
+
+/// The IR frame of the same instant as `depth` (device timestamps within half a frame period),
+/// from the IR ring; waits a few frame periods (within the grab's deadline) for one still on its
+/// way. When the partner is lost (OpenNI keeps one unread frame per stream, so a late callback can
+/// miss one), a newer depth frame that comes within that wait replaces `depth` (the skipped one
+/// counts as a drop); else none, and the depth frame goes out without intensity.
+std::optional<Pairing::Entry> ir_partner(Pairing& pairing, Pairing::Entry& depth, double frame_period_us,
+                                         Pairing::Clock::time_point deadline) {
+  const auto ir_wait = std::chrono::microseconds(
+      std::max<std::int64_t>(static_cast<std::int64_t>(kIrWaitPeriods * frame_period_us), kIrWaitMin_us));
+  const auto ir_deadline = std::min(deadline, Pairing::Clock::now() + ir_wait);
+  const auto tolerance_us = static_cast<std::uint64_t>(0.5 * frame_period_us);
+  std::optional<Pairing::Entry> partner;
+  while (!(partner = pairing.take_ir_partner(depth.timestamp_us, tolerance_us, ir_deadline))) {
+    std::optional<Pairing::Entry> newer = pairing.take_depth(ir_deadline);
+    if (!newer) break;
+    depth = std::move(*newer);
+  }
+  return partner;
+}
+
+}  // namespace
+
 Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
   const auto deadline = Pairing::Clock::now() + std::max(timeout, std::chrono::milliseconds(0));
   Session* s = impl_->session.get();
@@ -324,46 +365,11 @@ Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
   }
 
   std::optional<Pairing::Entry> taken = s->pairing.take_depth(deadline);
-  if (!taken) {
-    count_timeout();
-    std::string why = "openni2: no depth frame from " + impl_->camera_id + " within " +
-                      std::to_string(timeout.count()) + " ms";
-    if (!s->is_file) {
-      ++timeouts_in_row_;
-      bool present = false;
-      openni::Array<openni::DeviceInfo> devices;
-      openni::OpenNI::enumerateDevices(&devices);
-      for (int i = 0; i < devices.getSize(); ++i) present = present || impl_->uri == devices[i].getUri();
-      if (!present) {
-        mark_faulted();
-        return Error{why + " (device " + impl_->uri + " is gone)"};
-      }
-      if (timeouts_in_row_ >= options_.timeouts_before_fault) {
-        mark_faulted();
-        return Error{why + " (" + std::to_string(timeouts_in_row_) + " timeouts in a row: stream stopped)"};
-      }
-    }
-    return Error{why};
-  }
+  if (!taken) return no_depth(timeout);
   timeouts_in_row_ = 0;
 
-  // The IR frame of the same instant (device timestamps within half a frame period), from the IR
-  // ring; waits a few frame periods (within the grab's timeout) for one still on its way. When the
-  // partner is lost (OpenNI keeps one unread frame per stream, so a late callback can miss one),
-  // a newer depth frame that comes within that wait is taken instead (the skipped one counts as a
-  // drop); else the depth frame goes out without intensity.
-  std::optional<Pairing::Entry> partner;
-  if (s->has_ir) {
-    const auto ir_wait = std::chrono::microseconds(
-        std::max<std::int64_t>(static_cast<std::int64_t>(kIrWaitPeriods * impl_->frame_period_us), kIrWaitMin_us));
-    const auto ir_deadline = std::min(deadline, Pairing::Clock::now() + ir_wait);
-    const auto tolerance_us = static_cast<std::uint64_t>(0.5 * impl_->frame_period_us);
-    while (!(partner = s->pairing.take_ir_partner(taken->timestamp_us, tolerance_us, ir_deadline))) {
-      std::optional<Pairing::Entry> newer = s->pairing.take_depth(ir_deadline);
-      if (!newer) break;
-      taken = std::move(newer);
-    }
-  }
+  const std::optional<Pairing::Entry> partner =
+      s->has_ir ? ir_partner(s->pairing, *taken, impl_->frame_period_us, deadline) : std::nullopt;
 
   const openni::VideoFrameRef& depth = *taken->frame;
   if (!frame_fits(depth, 2)) {
@@ -393,24 +399,7 @@ Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
   frame.depth_scale_m = scale;
   copy_rows<std::uint16_t>(depth, frame.depth);
 
-  if (s->has_ir) {
-    bool paired = false;
-    if (partner) {
-      const openni::VideoFrameRef& ir = *partner->frame;
-      const openni::PixelFormat pf = ir.getVideoMode().getPixelFormat();
-      const bool gray16 = pf == openni::PIXEL_FORMAT_GRAY16;
-      if (ir.getWidth() == depth.getWidth() && ir.getHeight() == depth.getHeight() && frame_fits(ir, gray16 ? 2 : 1)) {
-        if (gray16) {
-          copy_rows<std::uint16_t>(ir, frame.intensity);
-        } else {
-          copy_rows<std::uint8_t>(ir, frame.intensity);
-        }
-        frame.intensity_bits = gray16 ? 16 : 8;
-        paired = true;
-      }
-    }
-    if (!paired) ++without_ir_;
-  }
+  if (s->has_ir && !(partner && take_intensity(*partner->frame, depth, frame))) ++without_ir_;
 
   frame.camera_id = impl_->camera_id;
   frame.sequence = sequence_++;
@@ -418,6 +407,27 @@ Expected<Frame> OpenNI2Camera::do_grab(std::chrono::milliseconds timeout) {
                            std::chrono::system_clock::now().time_since_epoch())
                            .count();
   return frame;
+}
+
+Error OpenNI2Camera::no_depth(std::chrono::milliseconds timeout) {
+  count_timeout();
+  std::string why = "openni2: no depth frame from " + impl_->camera_id + " within " +
+                    std::to_string(timeout.count()) + " ms";
+  if (impl_->session->is_file) return Error{why};
+  ++timeouts_in_row_;
+  bool present = false;
+  openni::Array<openni::DeviceInfo> devices;
+  openni::OpenNI::enumerateDevices(&devices);
+  for (int i = 0; i < devices.getSize(); ++i) present = present || impl_->uri == devices[i].getUri();
+  if (!present) {
+    mark_faulted();
+    return Error{why + " (device " + impl_->uri + " is gone)"};
+  }
+  if (timeouts_in_row_ >= options_.timeouts_before_fault) {
+    mark_faulted();
+    return Error{why + " (" + std::to_string(timeouts_in_row_) + " timeouts in a row: stream stopped)"};
+  }
+  return Error{why};
 }
 
 }  // namespace palletd

@@ -69,6 +69,7 @@ class OpenNI2Camera final : public Camera {
   Status open_device();
   Status start_streams();
   Expected<Frame> rewind_and_grab(std::chrono::milliseconds timeout);
+  Error no_depth(std::chrono::milliseconds timeout);  ///< do_grab() without a depth frame in time
 
   OpenNI2Options options_;
   std::unique_ptr<Impl> impl_;
