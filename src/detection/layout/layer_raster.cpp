@@ -53,24 +53,58 @@ std::optional<LayerRasterGeometry> layer_raster_geometry(const Intrinsics& in, c
 
 namespace {
 
-// One pass of a (2k+1)-wide window along rows (along_rows) or columns: a cell keeps 1 when every
-// cell of its window is 1 (erode) or any is (dilate); outside the raster counts as 0.
-void window_pass(std::vector<std::uint8_t>& cells, int w, int h, int k, bool along_rows, bool erode) {
-  const int n = along_rows ? w : h, lines = along_rows ? h : w;
-  std::vector<int> ones(static_cast<std::size_t>(n) + 1);
-  std::vector<std::uint8_t> out(static_cast<std::size_t>(n));
-  auto at = [&](int line, int i) -> std::uint8_t& {
-    const int x = along_rows ? i : line, y = along_rows ? line : i;
-    return cells[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)];
-  };
-  for (int line = 0; line < lines; ++line) {
-    for (int i = 0; i < n; ++i) ones[static_cast<std::size_t>(i) + 1] = ones[static_cast<std::size_t>(i)] + at(line, i);
-    for (int i = 0; i < n; ++i) {
-      const int lo = std::max(0, i - k), hi = std::min(n, i + k + 1);
-      const int count = ones[static_cast<std::size_t>(hi)] - ones[static_cast<std::size_t>(lo)];
-      out[static_cast<std::size_t>(i)] = erode ? (count == 2 * k + 1 ? 1 : 0) : (count > 0 ? 1 : 0);
+// A cell keeps 1 when every cell of its window is 1 (erode) or any is (dilate): `count` ones of
+// the `full` cells a whole window holds (outside the raster counts as 0).
+std::uint8_t window_value(int count, int full, bool erode) {
+  return erode ? (count == full ? 1 : 0) : (count > 0 ? 1 : 0);
+}
+
+// One pass of a (2k+1)-wide window along each row: running sums along the row.
+void row_pass(std::vector<std::uint8_t>& cells, int w, int h, int k, bool erode) {
+  std::vector<int> ones(static_cast<std::size_t>(w) + 1);
+  for (int y = 0; y < h; ++y) {
+    std::uint8_t* row = cells.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
+    for (int x = 0; x < w; ++x)
+      ones[static_cast<std::size_t>(x) + 1] = ones[static_cast<std::size_t>(x)] + row[x];
+    for (int x = 0; x < w; ++x) {
+      const int lo = std::max(0, x - k), hi = std::min(w, x + k + 1);
+      row[x] = window_value(ones[static_cast<std::size_t>(hi)] - ones[static_cast<std::size_t>(lo)],
+                            2 * k + 1, erode);
     }
-    for (int i = 0; i < n; ++i) at(line, i) = out[static_cast<std::size_t>(i)];
+  }
+}
+
+// One pass of a (2k+1)-tall window down each column: a running count per column, slid down one
+// row at a time (rows are read whole, in memory order).
+void column_pass(std::vector<std::uint8_t>& cells, int w, int h, int k, bool erode) {
+  const std::vector<std::uint8_t> in = cells;
+  const auto W = static_cast<std::size_t>(w);
+  auto row_of = [&](int y) { return in.data() + static_cast<std::size_t>(y) * W; };
+  std::vector<int> count(W, 0);
+  for (int y = 0; y <= std::min(k, h - 1); ++y) {
+    const std::uint8_t* r = row_of(y);
+    for (std::size_t x = 0; x < W; ++x) count[x] += r[x];
+  }
+  for (int y = 0; y < h; ++y) {  // count: rows y - k .. y + k of the raster
+    std::uint8_t* out = cells.data() + static_cast<std::size_t>(y) * W;
+    for (std::size_t x = 0; x < W; ++x) out[x] = window_value(count[x], 2 * k + 1, erode);
+    if (y + k + 1 < h) {
+      const std::uint8_t* r = row_of(y + k + 1);
+      for (std::size_t x = 0; x < W; ++x) count[x] += r[x];
+    }
+    if (y - k >= 0) {
+      const std::uint8_t* r = row_of(y - k);
+      for (std::size_t x = 0; x < W; ++x) count[x] -= r[x];
+    }
+  }
+}
+
+void window_pass(std::vector<std::uint8_t>& cells, int w, int h, int k, bool along_rows, bool erode) {
+  if (w <= 0 || h <= 0) return;
+  if (along_rows) {
+    row_pass(cells, w, h, k, erode);
+  } else {
+    column_pass(cells, w, h, k, erode);
   }
 }
 

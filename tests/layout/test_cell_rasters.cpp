@@ -1,6 +1,8 @@
-// Summed-area tables computed into the caller's vector (integral_into) and read bilinearly
-// (sat_sum_bilinear), as the seam table, the tape evidence and the area oracle read them.
+// Cell rasters of the layout stage: summed-area tables computed into the caller's vector
+// (integral_into) and read bilinearly (sat_sum_bilinear), as the seam table, the tape evidence
+// and the area oracle read them; square erosion, dilation and opening of binary rasters.
 #include <cstdint>
+#include <random>
 #include <utility>
 #include <vector>
 
@@ -8,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "evidence/seam_raster.hpp"
+#include "layer_raster.hpp"
 
 using namespace palletd::layout_detail;
 
@@ -38,7 +41,52 @@ double loop_sum(const cv::Mat& image, int x0, int y0, int x1, int y1) {
   return sum;
 }
 
+/// Square window of half-width k by definition: every (erode) or any (dilate) cell within k along
+/// both axes is 1, cells beyond the raster 0.
+std::vector<std::uint8_t> brute_window(const std::vector<std::uint8_t>& cells, int w, int h, int k,
+                                       bool erode) {
+  std::vector<std::uint8_t> out(cells.size());
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      bool all = true, any = false;
+      for (int dy = -k; dy <= k; ++dy) {
+        for (int dx = -k; dx <= k; ++dx) {
+          const int u = x + dx, v = y + dy;
+          const bool on =
+              u >= 0 && v >= 0 && u < w && v < h && cells[static_cast<std::size_t>(v * w + u)] != 0;
+          all = all && on;
+          any = any || on;
+        }
+      }
+      out[static_cast<std::size_t>(y * w + x)] = (erode ? all : any) ? 1 : 0;
+    }
+  }
+  return out;
+}
+
 }  // namespace
+
+TEST_CASE("square erosion, dilation and opening of a cell raster match their definition",
+          "[layout][raster]") {
+  std::mt19937 rng(20261204);
+  for (const auto& [w, h] : {std::pair{1, 1}, std::pair{7, 3}, std::pair{23, 31}, std::pair{64, 9}}) {
+    for (const int k : {0, 1, 2, 4}) {
+      for (const double density : {0.5, 0.9}) {
+        std::bernoulli_distribution on(density);
+        std::vector<std::uint8_t> cells(static_cast<std::size_t>(w * h));
+        for (auto& c : cells) c = on(rng) ? 1 : 0;
+        INFO(w << "x" << h << " k " << k << " density " << density);
+        std::vector<std::uint8_t> eroded = cells, dilated = cells, opened = cells;
+        erode_square(eroded, w, h, k);
+        dilate_square(dilated, w, h, k);
+        open_square(opened, w, h, k);
+        CHECK(eroded == brute_window(cells, w, h, k, true));
+        CHECK(dilated == brute_window(cells, w, h, k, false));
+        CHECK(opened == brute_window(brute_window(cells, w, h, k, true), w, h, k, false));
+      }
+    }
+  }
+}
 
 TEST_CASE("a summed-area table written into a reused vector sums every whole-cell rectangle as a loop does",
           "[layout][seams]") {
