@@ -146,13 +146,16 @@ Status take_depth(ArvBuffer* buffer, std::size_t n, const aravis::Scan3dParams& 
   size_t size = 0;
   const void* data = arv_buffer_get_image_data(buffer, &size);
   if (format == ARV_PIXEL_FORMAT_COORD3D_C_16 || format == ARV_PIXEL_FORMAT_MONO_16) {
-    if (size < n * 2) return Error{"aravis: short 16-bit frame (" + std::to_string(size) + " bytes)"};
+    if (size < n * 2) {
+      return Error{"aravis: short 16-bit frame (" + std::to_string(size) + " bytes)"};
+    }
     aravis::convert_c16(data, n, scan3d, frame);
     return {};
   }
   if (format == ARV_PIXEL_FORMAT_COORD3D_ABC_32F) {
-    if (size < n * 12)
+    if (size < n * 12) {
       return Error{"aravis: short Coord3D_ABC32f frame (" + std::to_string(size) + " bytes)"};
+    }
     aravis::convert_abc32f(data, n, scan3d, frame);
     return {};
   }

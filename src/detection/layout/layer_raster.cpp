@@ -64,8 +64,9 @@ void row_pass(std::vector<std::uint8_t>& cells, int w, int h, int k, bool erode)
   std::vector<int> ones(static_cast<std::size_t>(w) + 1);
   for (int y = 0; y < h; ++y) {
     std::uint8_t* row = cells.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
-    for (int x = 0; x < w; ++x)
+    for (int x = 0; x < w; ++x) {
       ones[static_cast<std::size_t>(x) + 1] = ones[static_cast<std::size_t>(x)] + row[x];
+    }
     for (int x = 0; x < w; ++x) {
       const int lo = std::max(0, x - k), hi = std::min(w, x + k + 1);
       row[x] = window_value(ones[static_cast<std::size_t>(hi)] - ones[static_cast<std::size_t>(lo)],
@@ -78,23 +79,23 @@ void row_pass(std::vector<std::uint8_t>& cells, int w, int h, int k, bool erode)
 // row at a time (rows are read whole, in memory order).
 void column_pass(std::vector<std::uint8_t>& cells, int w, int h, int k, bool erode) {
   const std::vector<std::uint8_t> in = cells;
-  const auto W = static_cast<std::size_t>(w);
-  auto row_of = [&](int y) { return in.data() + static_cast<std::size_t>(y) * W; };
-  std::vector<int> count(W, 0);
+  const auto width = static_cast<std::size_t>(w);
+  auto row_of = [&](int y) { return in.data() + static_cast<std::size_t>(y) * width; };
+  std::vector<int> count(width, 0);
   for (int y = 0; y <= std::min(k, h - 1); ++y) {
     const std::uint8_t* r = row_of(y);
-    for (std::size_t x = 0; x < W; ++x) count[x] += r[x];
+    for (std::size_t x = 0; x < width; ++x) count[x] += r[x];
   }
   for (int y = 0; y < h; ++y) {  // count: rows y - k .. y + k of the raster
-    std::uint8_t* out = cells.data() + static_cast<std::size_t>(y) * W;
-    for (std::size_t x = 0; x < W; ++x) out[x] = window_value(count[x], 2 * k + 1, erode);
+    std::uint8_t* out = cells.data() + static_cast<std::size_t>(y) * width;
+    for (std::size_t x = 0; x < width; ++x) out[x] = window_value(count[x], 2 * k + 1, erode);
     if (y + k + 1 < h) {
       const std::uint8_t* r = row_of(y + k + 1);
-      for (std::size_t x = 0; x < W; ++x) count[x] += r[x];
+      for (std::size_t x = 0; x < width; ++x) count[x] += r[x];
     }
     if (y - k >= 0) {
       const std::uint8_t* r = row_of(y - k);
-      for (std::size_t x = 0; x < W; ++x) count[x] -= r[x];
+      for (std::size_t x = 0; x < width; ++x) count[x] -= r[x];
     }
   }
 }
