@@ -211,15 +211,17 @@ class Service::Impl {
 
   void pipeline_main() {
     int warm_up_tries = 0;
+    Clock::time_point next_warm_up{};
     while (running_) {
       mark(pipeline_alive_);
       try {
         if (reload_health_.exchange(false)) configure_health(*config());
         std::optional<modbus::HandshakeEvent> event = server_.wait_event(200ms);
         if (!event) {
-          if (wants_warm_up(warm_up_tries)) {  // a try counts only once the camera is up
-            ++warm_up_tries;
+          if (wants_warm_up(warm_up_tries) && Clock::now() >= next_warm_up) {
+            ++warm_up_tries;  // a try counts only once the camera is up
             warm_up_ms_.store(warm_up(*acquisition_, *config(), workspace_));
+            next_warm_up = Clock::now() + kWarmUpRetry;
           }
           continue;
         }
@@ -241,10 +243,12 @@ class Service::Impl {
   }
 
   // The warm-up (recipe_detection.hpp) runs while no trigger waits, once the camera is up, before
-  // the first trigger; a few tries. Not on a replay camera: it plays its recording one frame per
-  // trigger, and the warm-up would take the first.
+  // the first trigger; up to five tries a second apart (the first frames of a freshly started
+  // stream may come incomplete on a loaded machine). Not on a replay camera: it plays its
+  // recording one frame per trigger, and the warm-up would take the first.
+  static constexpr std::chrono::seconds kWarmUpRetry{1};
   bool wants_warm_up(int tries) const {
-    constexpr int kMaxTries = 3;
+    constexpr int kMaxTries = 5;
     return tries < kMaxTries && warm_up_ms_.load() < 0.0 && triggers_.load() == 0 &&
            config()->camera.driver != "replay" && acquisition_->camera().camera_ok();
   }
