@@ -162,3 +162,25 @@ TEST_CASE("tape: a band the layout puts no carton's middle on is unexplained") {
   const TapeEvidence plain(with_tops(l, {}, kBoard, 0.0, 20.f), LayoutFrame{}, -0.1, -0.1, 480, 200);
   CHECK(plain.unexplained_band_m(across) == 0.0);
 }
+
+TEST_CASE("tape: a box's reading is kept for its exact place only") {
+  // Layouts compared in pairs share most boxes, so each placement is read once. A box moved
+  // across, or turned, is another placement: read where it now stands.
+  const KnownLayout l = block(2, 1, 0.6, 0.4);
+  const std::vector<FrameBox> boxes = frame_boxes(l);
+  const SeamEvidence seams = with_tops(l, {boxes.front()}, 0.7f * kBoard, 0.048, 20.f);
+  const TapeEvidence tape(seams, LayoutFrame{}, -0.1, -0.1, 480, 200);
+  const std::vector<FrameBox> none;
+  const double taped = tape.only_m({boxes.front()}, none);
+  CHECK(taped > 0.5);
+  CHECK(tape.only_m({boxes.front()}, none) == taped);  // read again from what was kept
+  FrameBox off = boxes.front();                        // 150 mm across: the band runs outside its search
+  off.rect.y0 += 0.15;
+  off.rect.y1 += 0.15;
+  CHECK(tape.only_m({off}, none) == 0.0);
+  FrameBox turned = boxes.front();  // the same rectangle with its long side the other way
+  turned.long_along_x = false;
+  CHECK(tape.only_m({turned}, none) == 0.0);
+  CHECK(tape.only_m({boxes.front(), off}, none) == taped);
+  CHECK(tape.only_m({boxes.back()}, none) == 0.0);  // the second carton carries no band
+}

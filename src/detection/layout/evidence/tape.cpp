@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -130,13 +131,29 @@ double TapeEvidence::taped_length_m(const FrameBox& box) const {
   return 0.0;
 }
 
+std::size_t TapeEvidence::PlacementHash::operator()(const Placement& p) const {
+  std::uint64_t h = p.long_along_x ? 0x9e3779b97f4a7c15ULL : 0ULL;
+  for (const std::uint64_t bits : p.rect_bits) h = (h ^ bits) * 0x100000001b3ULL + (h >> 29);
+  return static_cast<std::size_t>(h);
+}
+
+double TapeEvidence::taped_length_kept_m(const FrameBox& box) const {
+  Placement key;
+  const double corners[4] = {box.rect.x0, box.rect.y0, box.rect.x1, box.rect.y1};
+  std::memcpy(key.rect_bits.data(), corners, sizeof corners);
+  key.long_along_x = box.long_along_x;
+  const auto [it, added] = taped_.try_emplace(key, 0.0);
+  if (added) it->second = taped_length_m(box);
+  return it->second;
+}
+
 double TapeEvidence::only_m(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const {
   if (empty()) return 0.0;
   double m = 0.0;
   for (const FrameBox& box : a) {
     const bool shared =
         std::any_of(b.begin(), b.end(), [&](const FrameBox& o) { return same_carton(box, o); });
-    if (!shared) m += taped_length_m(box);
+    if (!shared) m += taped_length_kept_m(box);
   }
   return m;
 }

@@ -10,6 +10,9 @@
 // tape may match the board).
 #pragma once
 
+#include <array>
+#include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "layout_internal.hpp"
@@ -28,6 +31,9 @@ class TapeEvidence {
   /// Length of the box's middle line along which a band runs [m]: the whole line between 30 mm
   /// off either end when a band shows along it, else 0.
   [[nodiscard]] double taped_length_m(const FrameBox& box) const;
+  /// The reading above, for a box placed exactly so (its rectangle's bits and its way round):
+  /// kept, because layouts compared in pairs share most of their boxes.
+  [[nodiscard]] double taped_length_kept_m(const FrameBox& box) const;
 
   /// Taped length of the boxes of `a` that `b` has no box like (same way round, sides within
   /// 20 mm) [m].
@@ -54,9 +60,22 @@ class TapeEvidence {
   /// Mean intensity of the tops seen in the frame rectangle, and the share of it seen.
   [[nodiscard]] double mean(double x0, double y0, double x1, double y1, double* seen_share) const;
 
+  /// A box placed exactly: its rectangle's four coordinates (bits) and whether its long side is along x.
+  struct Placement {
+    std::array<std::uint64_t, 4> rect_bits{};
+    bool long_along_x = true;
+    bool operator==(const Placement& o) const {
+      return rect_bits == o.rect_bits && long_along_x == o.long_along_x;
+    }
+  };
+  struct PlacementHash {
+    std::size_t operator()(const Placement& p) const;
+  };
+
   double x0_ = 0, y0_ = 0, cell_ = 0;
   int w_ = 0, h_ = 0;
   std::vector<double> sum_, seen_;  ///< summed-area tables of intensity x seen, and of seen
+  mutable std::unordered_map<Placement, double, PlacementHash> taped_;  ///< taped_length_m() per placement
 };
 
 /// Whether a band runs along the middle of `box` (layer frame) in the tops' intensity.
