@@ -42,6 +42,8 @@ constexpr double kMinSigmaLimit_mm = 5.0;
 /// A sheet covers a whole layer: a tiling of at least this many boxes (a stepped remainder of one
 /// to three cartons is no sheet).
 constexpr std::size_t kMinSheetBoxes = 4;
+/// Boxes (and at least half of them) whose middles show a band of tape rule out a slip sheet.
+constexpr std::size_t kMinTapedBoxes = 2;
 /// A seam line across a box (or between two boxes) at least this strong tells one box from two.
 constexpr double kSplitSeam = 0.5;
 /// The rim shows mixed pixels along at least this share of the outline: the camera mixes depths
@@ -244,6 +246,8 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   const InteriorSeams& seams = layout.interior_seams;
   if (layout.boxes.size() < kMinSheetBoxes || seams.length_m < min_short_m(formats)) return std::nullopt;
   if (seams.seen_share() >= kSeamlessShare) return std::nullopt;
+  // Tape along the middles of many of the boxes: cartons pressed together, not a plain sheet.
+  if (seams.taped_boxes >= std::max(kMinTapedBoxes, layout.boxes.size() / 2)) return std::nullopt;
   std::ostringstream share;
   share.precision(2);
   share << seams.seen_share();

@@ -40,7 +40,9 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
 /// sheet covers the layer (kSlipSheet) where the sensor resolves seams; where it cannot, the
 /// result is flagged (kOk with a message for ambiguity_reason), holes in the rectangle or not (a
 /// sheet's depth drops out in places). On a layer of any other shape, or a rectangle with holes,
-/// it is flagged where the sensor resolves seams (a torn or holed sheet), else left alone.
+/// it is flagged where the sensor resolves seams (a torn or holed sheet), else left alone. Tape
+/// along the middles of at least two boxes and half of them (InteriorSeams::taped_boxes) is
+/// cartons pressed together: no sheet, whatever the seams.
 std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,
                                        const std::vector<BoxFormat>& formats);
 

@@ -414,3 +414,32 @@ TEST_CASE("deck boards are an empty pallet, also with two boards merged into one
   two_boards.polygons.erase(two_boards.polygons.begin());
   CHECK_FALSE(empty_level(frame, two_boards, formats, DetectionParams{}));
 }
+
+TEST_CASE("a seamless rectangle is a sheet unless half its boxes show tape along their middles",
+          "[cell][sheet]") {
+  // Six 400 x 300 cartons pressed together in a 1200 x 600 rectangle, no seam seen between them,
+  // on a camera that shows narrow seams. A sheet is plain; cartons carry tape along their flaps.
+  LayoutResult layout;
+  layout.status = DetectionStatus::kOk;
+  layout.boxes.resize(6);
+  layout.pixel_pitch_m = 0.004;
+  layout.rim_share = 0.6;
+  layout.interior_seams.length_m = 2.0;
+  layout.interior_seams.seen_m = 0.05;
+  LayerResult layer;
+  layer.polygons.push_back(PolygonWithHoles{{{0.0, 0.0}, {1.2, 0.0}, {1.2, 0.6}, {0.0, 0.6}}, {}});
+  const std::vector<BoxFormat> formats = {BoxFormat{0.4, 0.3, "400x300", 0.0}};
+  const std::optional<LevelVerdict> plain = slip_sheet(layout, layer, formats);
+  REQUIRE(plain);
+  CHECK(plain->status == DetectionStatus::kSlipSheet);
+  layout.interior_seams.taped_boxes = 2;  // two of six: a print or a label may line up by chance
+  REQUIRE(slip_sheet(layout, layer, formats));
+  CHECK(slip_sheet(layout, layer, formats)->status == DetectionStatus::kSlipSheet);
+  layout.interior_seams.taped_boxes = 3;
+  CHECK_FALSE(slip_sheet(layout, layer, formats));
+  layout.rim_share = 0.05;  // a stereo camera: without tape in doubt, with it cartons
+  CHECK_FALSE(slip_sheet(layout, layer, formats));
+  layout.interior_seams.taped_boxes = 0;
+  REQUIRE(slip_sheet(layout, layer, formats));
+  CHECK(slip_sheet(layout, layer, formats)->status == DetectionStatus::kOk);
+}

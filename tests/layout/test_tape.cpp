@@ -184,3 +184,26 @@ TEST_CASE("tape: a box's reading is kept for its exact place only") {
   CHECK(tape.only_m({boxes.front(), off}, none) == taped);
   CHECK(tape.only_m({boxes.back()}, none) == 0.0);  // the second carton carries no band
 }
+
+TEST_CASE("tape: the boxes that show it are counted where no seam shows between them") {
+  // Four 600 x 400 cartons pressed together (the seam raster blank), tape along three of them.
+  const KnownLayout l = block(2, 2, 0.6, 0.4);
+  const std::vector<FrameBox> boxes = frame_boxes(l);
+  SeamEvidence seams = with_tops(l, {boxes[0], boxes[1], boxes[3]}, 0.7f * kBoard, 0.048, 20.f);
+  std::fill(seams.seam.begin(), seams.seam.end(), 0.f);
+  std::vector<LayoutBox> layout;
+  for (const Box2d& b : truth_boxes(l)) {
+    LayoutBox box;
+    static_cast<Box2d&>(box) = b;
+    layout.push_back(box);
+  }
+  const std::vector<PolygonWithHoles> outline = union_outline(l);
+  const InteriorSeams pressed = measure_interior_seams(layout, seams, outline);
+  CHECK(pressed.seen_share() < 0.1);
+  CHECK(pressed.taped_boxes == 3);
+  // Where the seams show, the tape is not asked for (the count costs a reading per box).
+  std::fill(seams.seam.begin(), seams.seam.end(), 1.f);
+  const InteriorSeams seen = measure_interior_seams(layout, seams, outline);
+  CHECK(seen.seen_share() > 0.9);
+  CHECK(seen.taped_boxes == 0);
+}

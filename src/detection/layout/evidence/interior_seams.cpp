@@ -1,11 +1,14 @@
 // How much of a layout's interior box sides the seam raster (or a gap in the outline) shows as seams. Cartons
 // side by side leave a gap or at least the groove of their rounded edges, which the depth (a dip) or the
 // intensity image (a dark line) shows wherever the sensor resolves it; a slip sheet over the
-// layer is one flat surface and shows none.
+// layer is one flat surface and shows none; cartons pressed together still show the tape along
+// their flaps in the intensity image where a sheet is plain.
 #include <algorithm>
 #include <cmath>
 
 #include "palletd/detection/layout.hpp"
+
+#include "evidence/tape.hpp"
 
 namespace palletd {
 namespace {
@@ -100,6 +103,10 @@ InteriorSeams measure_interior_seams(const std::vector<LayoutBox>& boxes, const 
         if (seen) out.seen_m += step_m;
       }
     }
+  }
+  if (out.length_m > 0.0 && out.seen_share() < InteriorSeams::kTapeAskedShare) {
+    out.taped_boxes = static_cast<std::size_t>(std::count_if(
+        boxes.begin(), boxes.end(), [&](const LayoutBox& b) { return layout_detail::taped(b, seams); }));
   }
   return out;
 }

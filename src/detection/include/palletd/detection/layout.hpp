@@ -234,6 +234,11 @@ std::vector<RimPixel> build_layer_rim(const Frame& frame, const OrganizedCloud& 
 struct InteriorSeams {
   double length_m = 0.0;
   double seen_m = 0.0;
+  /// Boxes along whose middle the tops' intensity shows a band of tape (the flaps' closure);
+  /// counted only where under InteriorSeams::kTapeAskedShare of the interior sides show a seam:
+  /// cartons pressed together show their tape, a slip sheet is plain.
+  std::size_t taped_boxes = 0;
+  static constexpr double kTapeAskedShare = 0.25;
   [[nodiscard]] double seen_share() const { return length_m > 0.0 ? seen_m / length_m : 0.0; }
 };
 
