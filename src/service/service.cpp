@@ -17,9 +17,9 @@
 #include "health_monitor.hpp"
 #include "pick_check_answer.hpp"
 #include "recipe_detection.hpp"
-#include "result_record.hpp"
 #include "result_recording.hpp"
 #include "shadow.hpp"
+#include "trigger_answer.hpp"
 
 namespace palletd {
 
@@ -34,16 +34,6 @@ modbus::ServerOptions server_options(const Config& config) {
   o.handshake.initial_recipe = static_cast<std::uint16_t>(config.pipeline.default_recipe);
   o.log = [](const std::string& line) { spdlog::info("modbus: {}", line); };
   return o;
-}
-
-/// A box of the shadow's result counts as moved beyond this centre distance [mm].
-constexpr double kShadowMovedMm = 5.0;
-
-/// Where the shadow records the frames it disagrees on: a ring beside the recordings, an eighth
-/// of their size.
-std::optional<RecorderOptions> shadow_recording(const Config& config) {
-  if (!config.recording.enabled) return std::nullopt;
-  return RecorderOptions{config.recording.directory + "/shadow", config.recording.max_bytes / 8};
 }
 
 double ms_between(Clock::time_point a, Clock::time_point b) {
@@ -75,7 +65,7 @@ class Service::Impl {
     acquisition_ = std::make_unique<Acquisition>(
         std::move(supervisor), [this](const CameraSupervisor& cam) { publish_status(cam); });
     recording_ = std::make_unique<ResultRecording>(cfg);
-    shadow_ = std::make_unique<ShadowRunner>(cfg.shadow, shadow_recording(cfg), kShadowMovedMm);
+    shadow_ = make_shadow(cfg);
     configure_health(cfg);
     Status bound = server_.start();
     if (!bound) return Error{"modbus: " + bound.error()};
@@ -348,28 +338,16 @@ class Service::Impl {
 
   void run_detection(const Config& cfg, const Recipe& recipe, const Frame& frame,
                      modbus::ResultRecord& record, ResultSnapshot& snapshot) {
-    const auto t0 = Clock::now();
-    Detection detection = detect_recipe(cfg, recipe, frame, workspace_);
-    if (detection.status == DetectionStatus::kRecipeMismatch) {  // which recipe the frame shows
-      detection.recipe_check.best_recipe =
-          best_fitting_recipe(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace_);
-    }
-    const double elapsed_ms = ms_between(t0, Clock::now());
-    const bool base = frame.T_base_camera.has_value();
-    record = to_result_record(detection, base);
+    TriggerAnswer answer = answer_trigger(cfg, recipe, frame, workspace_);
+    record = std::move(answer.record);
     record.request_id = snapshot.request_id;
     record.recipe = snapshot.recipe;
-    record.processing_ms = elapsed_ms;
-    if (elapsed_ms > cfg.pipeline.detection_timeout_ms) {
-      fail(record, snapshot, modbus::ErrorCode::kDetectionTimeout,
-           static_cast<std::uint16_t>(std::min(elapsed_ms, 65535.0)),
-           "detection took " + std::to_string(static_cast<int>(elapsed_ms)) + " ms, over the timeout");
-    } else if (is_failure(detection.status)) {
-      failures_.fetch_add(1);
-      snapshot.error = modbus::ErrorCode::kDetectionFailed;
-      snapshot.error_text = std::string(to_string(detection.status)) + ": " + detection.message;
-    }
-    snapshot.detection = std::move(detection);
+    snapshot.detection = std::move(answer.detection);
+    if (answer.error_text.empty()) return;
+    failures_.fetch_add(1);
+    snapshot.error = answer.error;
+    snapshot.error_text = std::move(answer.error_text);
+    if (answer.timed_out) spdlog::warn("trigger failed: {}", snapshot.error_text);
   }
 
   void fail(modbus::ResultRecord& record, ResultSnapshot& snapshot, modbus::ErrorCode code,

@@ -106,4 +106,12 @@ void ShadowRunner::compare(const ResultSnapshot& live, const Config& shadow) {
   counters_.last_difference = text;
 }
 
+std::unique_ptr<ShadowRunner> make_shadow(const Config& config) {
+  constexpr double kMovedMm = 5.0;
+  std::optional<RecorderOptions> record;
+  if (config.recording.enabled)
+    record = RecorderOptions{config.recording.directory + "/shadow", config.recording.max_bytes / 8};
+  return std::make_unique<ShadowRunner>(config.shadow, std::move(record), kMovedMm);
+}
+
 }  // namespace palletd

@@ -60,4 +60,9 @@ class ShadowRunner {
   std::thread thread_;
 };
 
+/// The service's shadow runner for `config`: its shadow_config; the frames it disagrees on recorded
+/// in a ring beside the recordings, an eighth of their size (when recording is on); a box counts
+/// as moved beyond 5 mm.
+std::unique_ptr<ShadowRunner> make_shadow(const Config& config);
+
 }  // namespace palletd

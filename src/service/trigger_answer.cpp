@@ -1,0 +1,43 @@
+// The answer to the PLC's trigger (trigger_answer.hpp).
+#include "trigger_answer.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "palletd/detection/recipe_choice.hpp"
+
+#include "recipe_detection.hpp"
+#include "result_record.hpp"
+
+namespace palletd {
+
+TriggerAnswer answer_trigger(const Config& cfg, const Recipe& recipe, const Frame& frame,
+                             DetectionWorkspace& workspace) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  TriggerAnswer a;
+  a.detection = detect_recipe(cfg, recipe, frame, workspace);
+  if (a.detection.status == DetectionStatus::kRecipeMismatch) {  // which recipe the frame shows
+    a.detection.recipe_check.best_recipe =
+        best_fitting_recipe(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace);
+  }
+  const double elapsed_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  a.record = to_result_record(a.detection, frame.T_base_camera.has_value());
+  a.record.processing_ms = elapsed_ms;
+  if (elapsed_ms > cfg.pipeline.detection_timeout_ms) {
+    a.timed_out = true;
+    a.error = modbus::ErrorCode::kDetectionTimeout;
+    a.error_text = "detection took " + std::to_string(static_cast<int>(elapsed_ms)) + " ms, over the timeout";
+    a.record.status = modbus::ResultStatus::kFailed;
+    a.record.error = a.error;
+    a.record.error_detail = static_cast<std::uint16_t>(std::min(elapsed_ms, 65535.0));
+    a.record.boxes.clear();
+    a.record.boxes_found = 0;
+  } else if (is_failure(a.detection.status)) {
+    a.error = modbus::ErrorCode::kDetectionFailed;
+    a.error_text = std::string(to_string(a.detection.status)) + ": " + a.detection.message;
+  }
+  return a;
+}
+
+}  // namespace palletd
