@@ -81,12 +81,23 @@ Expected<Frame> Acquisition::acquire(const Request& request) {
     }
     return frame;
   }
+  // The trigger on the drivers' clock (Frame::timestamp_ns: arrival, system clock).
+  const std::int64_t trigger_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(
+          (std::chrono::system_clock::now() - (Clock::now() - request.trigger_time)).time_since_epoch())
+          .count();
   int completed_after_trigger = 0;
   while (Clock::now() < request.deadline && running_) {
     Expected<Frame> frame = camera_->grab(left());
     mark_alive();
     if (!frame) return frame;
-    // Completed before or just after the trigger: exposure may predate it.
+    // Arrived before the trigger (the stream's queue fills between triggers; a stalled camera
+    // leaves what it sent last): never the trigger's frame, however many wait.
+    if (frame->timestamp_ns != 0 && frame->timestamp_ns < trigger_ns) {
+      stale_dropped_.fetch_add(1);
+      continue;
+    }
+    // The first one completed after the trigger: its exposure may predate it.
     if (++completed_after_trigger < 2) {
       stale_dropped_.fetch_add(1);
       continue;

@@ -1,0 +1,82 @@
+// The acquisition thread's frame for a trigger (src/service/acquisition.hpp), on a scripted
+// free-running camera: frames that arrived before the trigger never answer it.
+#include <chrono>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include <catch2/catch.hpp>
+
+#include "palletd/drivers/camera.hpp"
+
+#include "acquisition.hpp"
+
+using namespace palletd;
+using namespace std::chrono_literals;
+
+namespace {
+
+std::int64_t system_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+/// Free-running: serves the frames queued (as a stream's full buffer queue holds them), then a
+/// fresh frame every 20 ms stamped on arrival, like the drivers.
+class ScriptedCamera : public Camera {
+ public:
+  void queue_stale(int n, std::chrono::milliseconds age) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (int i = 0; i < n; ++i) queued_.push_back(system_ns() - std::chrono::nanoseconds(age).count());
+  }
+  [[nodiscard]] bool trigger_mode() const override { return false; }
+
+ protected:
+  Status do_open() override {
+    set_identity(CameraIdentity{"scripted", "palletd", "script", "1", ""});
+    return {};
+  }
+  Status do_start() override { return {}; }
+  Status do_stop() override { return {}; }
+  void do_close() override {}
+  Expected<Frame> do_grab(std::chrono::milliseconds /*timeout*/) override {
+    Frame f;
+    f.intrinsics.width = 4;
+    f.intrinsics.height = 3;
+    f.depth.assign(12, 1000);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!queued_.empty()) {
+        f.timestamp_ns = queued_.front();
+        queued_.pop_front();
+        return f;
+      }
+    }
+    std::this_thread::sleep_for(20ms);
+    f.timestamp_ns = system_ns();
+    return f;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::deque<std::int64_t> queued_;  ///< arrival times of frames waiting in the stream's queue
+};
+
+}  // namespace
+
+TEST_CASE("a trigger is answered by a frame that arrived after it, however many wait in the queue") {
+  auto camera = std::make_unique<ScriptedCamera>();
+  ScriptedCamera& script = *camera;
+  Acquisition acquisition(std::make_unique<CameraSupervisor>(std::move(camera), 0.1, 0.4), nullptr);
+  acquisition.start();
+  REQUIRE(acquisition.frame_after(std::chrono::steady_clock::now(), 2000ms).ok());  // streaming
+  // Between triggers the stream's buffers filled up with frames the idle loop has not taken yet.
+  script.queue_stale(6, 300ms);
+  const std::int64_t trigger_ns = system_ns();
+  const Expected<Frame> frame = acquisition.frame_after(std::chrono::steady_clock::now(), 2000ms);
+  REQUIRE(frame.ok());
+  CHECK(frame->timestamp_ns >= trigger_ns);
+  acquisition.stop();
+}
