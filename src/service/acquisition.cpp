@@ -109,19 +109,22 @@ Expected<Frame> Acquisition::acquire(const Request& request) {
 
 void Acquisition::run() {
   auto last_status = Clock::now() - 1s;
+  bool took_frame = false;  ///< the last idle grab brought a frame: the next one waits in grab()
   while (running_) {
     mark_alive();
     bool have_request = false;
     Request copy;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      cv_.wait_for(lock, 100ms, [&] { return !running_ || (pending_ && !pending_->answer); });
+      cv_.wait_for(lock, took_frame ? 0ms : 100ms,
+                   [&] { return !running_ || (pending_ && !pending_->answer); });
       if (!running_) break;
       if (pending_ && !pending_->answer) {
         have_request = true;
         copy = Request{pending_->id, pending_->trigger_time, pending_->deadline, std::nullopt};
       }
     }
+    took_frame = false;
     if (have_request) {
       // Work on a copy: the caller may give up (past its deadline) and its request is gone.
       Expected<Frame> frame = acquire(copy);
@@ -131,8 +134,9 @@ void Acquisition::run() {
         cv_.notify_all();
       }
     } else if (!camera_->trigger_mode()) {
-      // Free-running: keep the stream drained so the next request gets fresh frames.
-      (void)camera_->grab(100ms);
+      // Free-running: every frame taken as it comes (grab() waits for it), so the stream's
+      // buffers stay free (none dropped for want of one) and a request finds fresh frames.
+      took_frame = camera_->grab(100ms).ok();
     } else {
       camera_->ensure_streaming();
     }
