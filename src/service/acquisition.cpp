@@ -109,7 +109,7 @@ Expected<Frame> Acquisition::acquire(const Request& request) {
 
 void Acquisition::run() {
   auto last_status = Clock::now() - 1s;
-  bool took_frame = false;  ///< the last idle grab brought a frame: the next one waits in grab()
+  bool took_frame = false;  // the last idle grab brought a frame: the next one waits in grab()
   while (running_) {
     mark_alive();
     bool have_request = false;

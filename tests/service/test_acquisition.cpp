@@ -68,35 +68,40 @@ class ScriptedCamera : public Camera {
   std::atomic<std::uint64_t> grabs_{0};
 };
 
+/// The scripted camera under an acquisition thread that has answered one trigger (streaming).
+struct Streaming {
+  std::unique_ptr<ScriptedCamera> owned = std::make_unique<ScriptedCamera>();
+  ScriptedCamera& script = *owned;
+  Acquisition acquisition{std::make_unique<CameraSupervisor>(std::move(owned), 0.1, 0.4), nullptr};
+  Streaming() {
+    acquisition.start();
+    REQUIRE(acquisition.frame_after(std::chrono::steady_clock::now(), 2000ms).ok());
+  }
+};
+
 }  // namespace
 
 TEST_CASE("a trigger is answered by a frame that arrived after it, however many wait in the queue") {
-  auto camera = std::make_unique<ScriptedCamera>();
-  ScriptedCamera& script = *camera;
-  Acquisition acquisition(std::make_unique<CameraSupervisor>(std::move(camera), 0.1, 0.4), nullptr);
-  acquisition.start();
-  REQUIRE(acquisition.frame_after(std::chrono::steady_clock::now(), 2000ms).ok());  // streaming
+  Streaming streaming;
+  ScriptedCamera& script = streaming.script;
+  Acquisition& acquisition = streaming.acquisition;
   // Between triggers the stream's buffers filled up with frames the idle loop has not taken yet.
   script.queue_stale(6, 300ms);
   const std::int64_t trigger_ns = system_ns();
   const Expected<Frame> frame = acquisition.frame_after(std::chrono::steady_clock::now(), 2000ms);
   REQUIRE(frame.ok());
   CHECK(frame->timestamp_ns >= trigger_ns);
-  acquisition.stop();
 }
 
 TEST_CASE("between triggers a free-running camera's frames are all taken as they come") {
   // A frame every 20 ms: left waiting, a stream's few buffers fill and the camera's next frames
   // are dropped (counted as lost on the status page and in the registers).
-  auto camera = std::make_unique<ScriptedCamera>();
-  ScriptedCamera& script = *camera;
-  Acquisition acquisition(std::make_unique<CameraSupervisor>(std::move(camera), 0.1, 0.4), nullptr);
-  acquisition.start();
-  REQUIRE(acquisition.frame_after(std::chrono::steady_clock::now(), 2000ms).ok());  // streaming
+  Streaming streaming;
+  ScriptedCamera& script = streaming.script;
+  Acquisition& acquisition = streaming.acquisition;
   const std::uint64_t before = script.grabs();
   std::this_thread::sleep_for(1000ms);
   const std::uint64_t taken = script.grabs() - before;
   INFO(taken << " frames taken in 1 s of 50");
   CHECK(taken >= 25);  // one per 100 ms (10) when the idle loop paused between grabs
-  acquisition.stop();
 }
