@@ -98,7 +98,6 @@ TEST_CASE("between triggers a free-running camera's frames are all taken as they
   // are dropped (counted as lost on the status page and in the registers).
   Streaming streaming;
   ScriptedCamera& script = streaming.script;
-  Acquisition& acquisition = streaming.acquisition;
   const std::uint64_t before = script.grabs();
   std::this_thread::sleep_for(1000ms);
   const std::uint64_t taken = script.grabs() - before;
