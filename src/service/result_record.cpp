@@ -5,6 +5,14 @@
 
 namespace palletd {
 
+void mark_failed(modbus::ResultRecord& record, modbus::ErrorCode code, std::uint16_t detail) {
+  record.status = modbus::ResultStatus::kFailed;
+  record.error = code;
+  record.error_detail = detail;
+  record.boxes.clear();
+  record.boxes_found = 0;
+}
+
 modbus::DetectionFailure failure_of(DetectionStatus status) {
   switch (status) {
     case DetectionStatus::kNoPlane: return modbus::DetectionFailure::kNoPlane;

@@ -1,6 +1,7 @@
 // Detection -> the PLC's result record (engineering units; the register map scales them).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 
 #include <Eigen/Geometry>
@@ -18,6 +19,9 @@ modbus::ResultRecord to_result_record(const Detection& detection, bool base_fram
 
 /// The register 870 + i status of a box: pickable, or what blocks it.
 modbus::PickStatus pick_status_of(const BoxPick& pick);
+
+/// Marks `record` a failed trigger: status kFailed with `code` and `detail`, no boxes.
+void mark_failed(modbus::ResultRecord& record, modbus::ErrorCode code, std::uint16_t detail);
 
 /// The register-102 detail of a failed detection.
 modbus::DetectionFailure failure_of(DetectionStatus status);

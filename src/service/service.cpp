@@ -17,6 +17,7 @@
 #include "health_monitor.hpp"
 #include "pick_check_answer.hpp"
 #include "recipe_detection.hpp"
+#include "result_record.hpp"
 #include "result_recording.hpp"
 #include "shadow.hpp"
 #include "trigger_answer.hpp"
@@ -347,17 +348,14 @@ class Service::Impl {
     failures_.fetch_add(1);
     snapshot.error = answer.error;
     snapshot.error_text = std::move(answer.error_text);
-    if (answer.timed_out) spdlog::warn("trigger failed: {}", snapshot.error_text);
+    if (answer.error == modbus::ErrorCode::kDetectionTimeout)
+      spdlog::warn("trigger failed: {}", snapshot.error_text);
   }
 
   void fail(modbus::ResultRecord& record, ResultSnapshot& snapshot, modbus::ErrorCode code,
             std::uint16_t detail, std::string text) {
     failures_.fetch_add(1);
-    record.status = modbus::ResultStatus::kFailed;
-    record.error = code;
-    record.error_detail = detail;
-    record.boxes.clear();
-    record.boxes_found = 0;
+    mark_failed(record, code, detail);
     snapshot.error = code;
     snapshot.error_text = std::move(text);
     spdlog::warn("trigger failed: {}", snapshot.error_text);

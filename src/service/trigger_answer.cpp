@@ -25,14 +25,9 @@ TriggerAnswer answer_trigger(const Config& cfg, const Recipe& recipe, const Fram
   a.record = to_result_record(a.detection, frame.T_base_camera.has_value());
   a.record.processing_ms = elapsed_ms;
   if (elapsed_ms > cfg.pipeline.detection_timeout_ms) {
-    a.timed_out = true;
     a.error = modbus::ErrorCode::kDetectionTimeout;
     a.error_text = "detection took " + std::to_string(static_cast<int>(elapsed_ms)) + " ms, over the timeout";
-    a.record.status = modbus::ResultStatus::kFailed;
-    a.record.error = a.error;
-    a.record.error_detail = static_cast<std::uint16_t>(std::min(elapsed_ms, 65535.0));
-    a.record.boxes.clear();
-    a.record.boxes_found = 0;
+    mark_failed(a.record, a.error, static_cast<std::uint16_t>(std::min(elapsed_ms, 65535.0)));
   } else if (is_failure(a.detection.status)) {
     a.error = modbus::ErrorCode::kDetectionFailed;
     a.error_text = std::string(to_string(a.detection.status)) + ": " + a.detection.message;

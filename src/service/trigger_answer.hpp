@@ -16,7 +16,6 @@ struct TriggerAnswer {
   modbus::ResultRecord record;  ///< status kFailed with kDetectionTimeout when it ran too long
   modbus::ErrorCode error = modbus::ErrorCode::kNone;
   std::string error_text;  ///< "" when the detection answered
-  bool timed_out = false;  ///< error is kDetectionTimeout (the record says so too)
 };
 
 /// detect_recipe() on `frame`; where the layer does not agree with the recipe, the configured

@@ -56,6 +56,20 @@ TEST_CASE("base-frame poses are used when every box carries one") {
   CHECK(r.layer_z_m == Approx(0.8));
 }
 
+TEST_CASE("a record marked failed keeps no boxes and carries the code and its detail") {
+  Detection d;
+  d.status = DetectionStatus::kOk;
+  d.boxes = {box_at(0.1, 0.2, 1.5, 0), box_at(-0.1, 0.2, 1.5, 1)};
+  auto r = palletd::to_result_record(d, false);
+  REQUIRE(r.boxes_found == 2);
+  palletd::mark_failed(r, palletd::modbus::ErrorCode::kDetectionTimeout, 312);
+  CHECK(r.status == palletd::modbus::ResultStatus::kFailed);
+  CHECK(r.error == palletd::modbus::ErrorCode::kDetectionTimeout);
+  CHECK(r.error_detail == 312);
+  CHECK(r.boxes.empty());
+  CHECK(r.boxes_found == 0);
+}
+
 TEST_CASE("failed detections carry the failure as error detail, an empty layout is 'no boxes'") {
   Detection failed;
   failed.status = DetectionStatus::kNoPlane;
