@@ -46,6 +46,9 @@ constexpr std::size_t kMinSheetBoxes = 4;
 constexpr std::size_t kMinTapedBoxes = 2;
 /// A seam line across a box (or between two boxes) at least this strong tells one box from two.
 constexpr double kSplitSeam = 0.5;
+/// A layout mixing formats whose boxes show seams along less than this share of the sides where
+/// they meet rests on the outline alone (the seams that would tell one mix from another are shut).
+constexpr double kMixSeenShare = 0.25;
 /// The rim shows mixed pixels along at least this share of the outline: the camera mixes depths
 /// across an edge, so a seam narrower than a pixel still shows as a dip.
 constexpr double kMixingRimShare = 0.3;
@@ -96,10 +99,18 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
 
 std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout) {
   const std::size_t mixed = formats_used(layout);
-  if (resolves_seams(layout) || mixed < 2) return std::nullopt;
-  return LevelVerdict{DetectionStatus::kOk,
-                      "the layout mixes " + std::to_string(mixed) + " formats and " + seam_blindness(layout) +
-                          ": another mix of the recipe's formats may fill the outline as well"};
+  if (mixed < 2) return std::nullopt;
+  const std::string why = "the layout mixes " + std::to_string(mixed) + " formats and ";
+  const std::string what = ": another mix of the recipe's formats may fill the outline as well";
+  if (!resolves_seams(layout)) return LevelVerdict{DetectionStatus::kOk, why + seam_blindness(layout) + what};
+  // A camera that shows seams, on cartons pressed together: the mix rests on the outline alone.
+  const InteriorSeams& seams = layout.interior_seams;
+  if (seams.length_m <= 0.0 || seams.seen_share() >= kMixSeenShare) return std::nullopt;
+  std::ostringstream share;
+  share.precision(2);
+  share << seams.seen_share();
+  return LevelVerdict{DetectionStatus::kOk, why + "seams show along only " + share.str() +
+                                                " of the sides where its boxes meet" + what};
 }
 
 std::optional<LevelVerdict> seams_across_boxes(const LayoutResult& layout) {

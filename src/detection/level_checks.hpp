@@ -52,8 +52,10 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
 /// way and nothing in the frame decides, so the layout is flagged (kOk with the sentence).
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
 
-/// A layout of two or more formats on a camera that does not show narrow seams: the formats are
-/// told apart by the outline alone, and another mix of them may fill it as well: flagged (kOk).
+/// A layout of two or more formats on a camera that does not show narrow seams, or whose boxes
+/// show seams along less than a quarter of the sides where they meet (pressed together): the
+/// formats are told apart by the outline alone, and another mix of them may fill it as well:
+/// flagged (kOk).
 std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout);
 
 /// Boxes with a seam line across their top at least as strong as one that tells one box from two

@@ -1,6 +1,7 @@
 // The flags level_checks.hpp raises on a camera that does not show narrow seams (a coarse pixel
 // pitch, or no mixed pixels at edges: stereo, structured light): a layout that mixes formats, a
-// search that ended on its budget. Where the camera shows seams, the seams decide and neither flags,
+// search that ended on its budget. Where the camera shows seams, the seams decide and neither flags
+// (unless the seams of a mix do not show where its boxes meet),
 // and a seam across a box's top flags; on every camera: boxes placed less surely than the limit,
 // boxes measured shorter than their format, boxes that reach into each other, pieces of the layer
 // without boxes, boxes the depth sees through.
@@ -52,6 +53,23 @@ TEST_CASE("a mix of formats on a camera that does not show narrow seams is flagg
   // One format: nothing to mix up. A time-of-flight camera at a fine pitch: the seams decide.
   CHECK_FALSE(mix_by_outline(layout_seen(0.004, 0.1, {1, 1, 1})));
   CHECK_FALSE(mix_by_outline(layout_seen(0.004, 0.8, {0, 1, 0})));
+}
+
+TEST_CASE("a mix of formats whose seams do not show where its boxes meet is flagged on any camera",
+          "[cell][flags]") {
+  LayoutResult pressed = layout_seen(0.004, 0.8, {0, 1, 0});  // a camera that shows seams
+  pressed.interior_seams.length_m = 1.2;
+  pressed.interior_seams.seen_m = 0.12;  // the cartons are pressed together
+  const std::optional<LevelVerdict> v = mix_by_outline(pressed);
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::Contains("mixes 2 formats"));
+  CHECK_THAT(v->message, Catch::Contains("seams show along only 0.1 of the sides"));
+  pressed.interior_seams.seen_m = 0.6;  // half of them show: the seams decide
+  CHECK_FALSE(mix_by_outline(pressed));
+  LayoutResult one_format = layout_seen(0.004, 0.8, {1, 1, 1});
+  one_format.interior_seams.length_m = 1.2;
+  CHECK_FALSE(mix_by_outline(one_format));  // nothing to mix up, seams or not
 }
 
 TEST_CASE("a search that ended on its budget is flagged where only the outline decides", "[cell][flags]") {

@@ -203,6 +203,33 @@ SeamEvidence synthetic_seams(const KnownLayout& l, double cell_m, double half_wi
   return ev;
 }
 
+SeamEvidence taped(SeamEvidence seams, const KnownLayout& layout) {
+  constexpr float kBoard = 1000.f;
+  constexpr double kTapeWidth_m = 0.048;
+  const auto boxes = truth_boxes(layout);
+  std::mt19937 rng(7);
+  std::normal_distribution<float> noise(0.f, 20.f);  // the board's grain and the sensor's noise
+  const std::size_t n = seams.seam.size();
+  seams.tops.assign(n, 0.f);
+  seams.tops_seen.assign(n, 0.f);
+  for (int iy = 0; iy < seams.height; ++iy) {
+    for (int ix = 0; ix < seams.width; ++ix) {
+      const Eigen::Vector2d p = seams.origin_m + seams.cell_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
+      const auto c =
+          static_cast<std::size_t>(iy) * static_cast<std::size_t>(seams.width) + static_cast<std::size_t>(ix);
+      for (const auto& b : boxes) {
+        const Eigen::Vector2d d = p - b.center;
+        const double along = std::cos(b.yaw_rad) * d.x() + std::sin(b.yaw_rad) * d.y();
+        const double across = -std::sin(b.yaw_rad) * d.x() + std::cos(b.yaw_rad) * d.y();
+        if (std::abs(along) > b.long_m / 2 || std::abs(across) > b.short_m / 2) continue;
+        seams.tops[c] = (std::abs(across) <= kTapeWidth_m / 2 ? 0.7f * kBoard : kBoard) + noise(rng);
+        seams.tops_seen[c] = 1.f;
+      }
+    }
+  }
+  return seams;
+}
+
 std::vector<Eigen::Vector2f> layer_points(const KnownLayout& l, double pitch_m) {
   std::vector<Eigen::Vector2f> out;
   for (const auto& b : truth_boxes(l)) {

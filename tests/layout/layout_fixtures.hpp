@@ -38,6 +38,10 @@ std::vector<PolygonWithHoles> perturb(const std::vector<PolygonWithHoles>& polyg
                                       double chamfer_m, unsigned seed);
 /// Seam raster: value 1 within half_width_m of every edge shared by two boxes.
 SeamEvidence synthetic_seams(const KnownLayout& layout, double cell_m, double half_width_m);
+/// `seams` with the tops' intensity: board of 1000 counts, and a band of tape 48 mm wide and 30 %
+/// darker along the middle (long axis) of every carton of `layout`, as regular slotted cartons
+/// are closed.
+SeamEvidence taped(SeamEvidence seams, const KnownLayout& layout);
 /// Layer points on a regular grid of pitch_m inside the boxes (the measured top faces).
 std::vector<Eigen::Vector2f> layer_points(const KnownLayout& layout, double pitch_m);
 

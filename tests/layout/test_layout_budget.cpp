@@ -102,7 +102,7 @@ TEST_CASE("footprint moves: a box split into two of the recipe, two merged into 
   CHECK(footprint_moves(one, {{0.4, 0.3, "A"}}, 0.01).empty());
 }
 
-TEST_CASE("mixed formats: the seams decide between a box and two of the other format") {
+TEST_CASE("mixed formats: a seam decides for two boxes, the tape for one, a box without either is in doubt") {
   const KnownLayout l = mixed_rows();
   const auto outline = union_outline(l);
   LayoutParams p;
@@ -111,8 +111,16 @@ TEST_CASE("mixed formats: the seams decide between a box and two of the other fo
   REQUIRE(plain.status == DetectionStatus::kOk);
   CHECK(plain.ambiguous);  // the outline cannot tell
 
+  // Seams alone: where two boxes stand their seam shows; where one stands, no seam is seen, and
+  // a gap pressed shut looks the same. The best guess is right, and it is flagged.
   const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
-  const LayoutResult a = find_layout(outline, l.formats, p, &seams);
+  const LayoutResult untaped = find_layout(outline, l.formats, p, &seams);
+  REQUIRE(untaped.status == DetectionStatus::kOk);
+  CHECK(untaped.ambiguous);
+  CHECK(match_error(truth_boxes(l), untaped.boxes) >= 0.0);
+  // The tape along each carton's middle shows where one carton stands.
+  const SeamEvidence with_tape = taped(seams, l);
+  const LayoutResult a = find_layout(outline, l.formats, p, &with_tape);
   REQUIRE(a.status == DetectionStatus::kOk);
   CHECK_FALSE(a.ambiguous);
   CHECK(match_error(truth_boxes(l), a.boxes) >= 0.0);
@@ -123,7 +131,7 @@ TEST_CASE("mixed formats: the seams decide between a box and two of the other fo
   swapped.boxes = {{0.0, 0.0, 1, false}, {0.2, 0.0, 1, false}, {0.4, 0.0, 0, true}, {0.8, 0.0, 1, false},
                    {1.0, 0.0, 1, false}, {0.0, 0.3, 0, true}, {0.4, 0.3, 1, false}, {0.6, 0.3, 1, false},
                    {0.8, 0.3, 0, true}};
-  const SeamEvidence seams2 = synthetic_seams(swapped, 0.003, 0.002);
+  const SeamEvidence seams2 = taped(synthetic_seams(swapped, 0.003, 0.002), swapped);
   const LayoutResult b = find_layout(outline, l.formats, p, &seams2);
   REQUIRE(b.status == DetectionStatus::kOk);
   CHECK_FALSE(b.ambiguous);

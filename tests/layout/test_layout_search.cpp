@@ -19,11 +19,15 @@ LayoutParams params_for_tests() {
 }
 
 /// Runs the search on the exact outline (optionally noisy, optionally with seams).
+/// find_layout on the layout's outline (perturbed by noise_m and chamfer_m); with its seams, and
+/// for a layout of several formats the tape along its cartons too (seams alone cannot show where
+/// one carton stands rather than two pressed together).
 LayoutResult run(const KnownLayout& l, const LayoutParams& p, bool with_seams, double noise_m = 0.0,
                  double chamfer_m = 0.0) {
   auto outline = union_outline(l);
   if (noise_m > 0 || chamfer_m > 0) outline = perturb(outline, noise_m, chamfer_m, 7U);
-  const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+  SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+  if (l.formats.size() > 1) seams = taped(std::move(seams), l);
   return find_layout(outline, l.formats, p, with_seams ? &seams : nullptr);
 }
 

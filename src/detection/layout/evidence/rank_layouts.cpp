@@ -16,6 +16,8 @@ namespace {
 /// Two hypotheses whose seam agreement differs by less than this share of the shortest box
 /// side [m of seam line] are not separated by the seams (-> ambiguous).
 constexpr double kSeamSeparation = 0.3;
+/// The widest gap between cartons a box laid over two of them may cover on each side [m].
+constexpr double kLaidOverGap_m = 0.02;
 /// Seam agreement is read in pieces of this length along a line [m].
 constexpr double kAgreementPiece_m = 0.04;
 
@@ -192,20 +194,26 @@ bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands
                             const std::vector<std::size_t>& near, const ComponentFrames& frames,
                             const std::vector<BoxFormat>& formats, const SeamJudge& judge,
                             const LayoutParams& params) {
+  const double slack_m = 2.0 * kLaidOverGap_m + judge.merge_tol_m;
   const std::vector<FootprintMove> moves = footprint_moves(best.boxes, formats, judge.merge_tol_m);
-  if (moves.empty()) return false;
+  const std::vector<FootprintMove> splits = judge.seams != nullptr
+                                                ? split_moves(best.boxes, formats, judge.merge_tol_m, slack_m)
+                                                : std::vector<FootprintMove>{};
+  if (moves.empty() && splits.empty()) return false;
   std::unique_ptr<SeamLikelihood> lik;
   if (judge.seams != nullptr) {
     lik = std::make_unique<SeamLikelihood>(*judge.seams, best.frame, frames.polygon(best.orientation),
                                            judge.merge_tol_m, params.seams.margin_m, judge.absent_cap_nats);
     const std::vector<FrameBox> overlay = moves_overlay(best.boxes, moves);
+    const std::vector<FrameBox> split_overlay = moves_overlay(best.boxes, splits);
     std::vector<const std::vector<FrameBox>*> calibration{&best.boxes, &overlay};
+    if (!splits.empty()) calibration.push_back(&split_overlay);
     for (std::size_t n : near) {
       if (cands[n].orientation == best.orientation) calibration.push_back(&cands[n].boxes);
     }
     lik->calibrate(calibration);
   }
-  const RetileResult rr = retile_by_seams(&best.boxes, formats, lik.get(), judge.merge_tol_m,
+  const RetileResult rr = retile_by_seams(&best.boxes, formats, lik.get(), judge.merge_tol_m, slack_m,
                                           SeamLikelihood::decisive_nats(judge.min_short_m));
   return rr.tied;
 }

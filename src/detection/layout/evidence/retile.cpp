@@ -1,5 +1,6 @@
 // Footprint moves decided by the seam likelihood (see seam_likelihood.hpp, retile_by_seams).
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "evidence/seam_likelihood.hpp"
@@ -59,6 +60,58 @@ std::vector<std::vector<FrameBox>> tilings(const Rect& r, const std::vector<Shap
   return out;
 }
 
+/// How two boxes split a span with some to spare: the share of the spare left outside them (the
+/// rest is the gap between them), from all in the gap to the boxes meeting in the middle.
+constexpr std::array<double, 4> kOutsideShares{0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0};
+
+/// Splits of r into two boxes of the recipe whose sizes fall short of r by more than tol and at
+/// most slack: the boxes a larger box was laid over, with their gaps. The split line never runs
+/// along r's long middle (tape along a carton's flaps lies there).
+std::vector<std::vector<FrameBox>> short_splits(const Rect& r, const std::vector<Shape>& shapes, double tol,
+                                                double slack) {
+  std::vector<std::vector<FrameBox>> out;
+  const double w = r.x1 - r.x0, h = r.y1 - r.y0;
+  auto fits = [&](double need, double have) { return need <= have + tol && need >= have - slack; };
+  auto across = [&](double lo, double hi, double size, int k) {  // k: low, centred, high
+    const double spare = std::max(0.0, (hi - lo) - size);
+    const double a = k == 0 ? lo : (k == 1 ? lo + 0.5 * spare : hi - size);
+    return std::pair<double, double>{a, std::min(hi, a + size)};
+  };
+  for (const Shape& a : shapes) {
+    for (const Shape& b : shapes) {
+      const bool along_x =
+          fits(a.dy, h) && fits(b.dy, h) && fits(a.dx + b.dx, w) &&
+          !(std::abs(a.dy - h) < tol && std::abs(b.dy - h) < tol && std::abs(a.dx + b.dx - w) < tol);
+      const bool along_y =
+          fits(a.dx, w) && fits(b.dx, w) && fits(a.dy + b.dy, h) &&
+          !(std::abs(a.dx - w) < tol && std::abs(b.dx - w) < tol && std::abs(a.dy + b.dy - h) < tol);
+      for (const double share : kOutsideShares) {
+        if (along_x &&
+            !(h > w && std::abs(r.x0 + a.dx + 0.5 * (w - a.dx - b.dx) - 0.5 * (r.x0 + r.x1)) < tol)) {
+          const double spare = std::max(0.0, w - a.dx - b.dx), outer = 0.5 * share * spare;
+          for (int k = 0; k < 3; ++k) {
+            const auto [ya0, ya1] = across(r.y0, r.y1, a.dy, k);
+            const auto [yb0, yb1] = across(r.y0, r.y1, b.dy, k);
+            out.push_back({{{r.x0 + outer, ya0, r.x0 + outer + a.dx, ya1}, a.format, a.long_along_x},
+                           {{r.x1 - outer - b.dx, yb0, r.x1 - outer, yb1}, b.format, b.long_along_x}});
+          }
+        }
+        if (along_y &&
+            !(w > h && std::abs(r.y0 + a.dy + 0.5 * (h - a.dy - b.dy) - 0.5 * (r.y0 + r.y1)) < tol)) {
+          const double spare = std::max(0.0, h - a.dy - b.dy), outer = 0.5 * share * spare;
+          for (int k = 0; k < 3; ++k) {
+            const auto [xa0, xa1] = across(r.x0, r.x1, a.dx, k);
+            const auto [xb0, xb1] = across(r.x0, r.x1, b.dx, k);
+            out.push_back({{{xa0, r.y0 + outer, xa1, r.y0 + outer + a.dy}, a.format, a.long_along_x},
+                           {{xb0, r.y1 - outer - b.dy, xb1, r.y1 - outer}, b.format, b.long_along_x}});
+          }
+        }
+      }
+    }
+  }
+  return out;
+}
+
 bool same_tiling(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b, double tol) {
   if (a.size() != b.size()) return false;
   for (const auto& x : a) {
@@ -101,6 +154,16 @@ std::vector<FootprintMove> footprint_moves(const std::vector<FrameBox>& boxes, c
   return moves;
 }
 
+std::vector<FootprintMove> split_moves(const std::vector<FrameBox>& boxes,
+                                       const std::vector<BoxFormat>& formats, double tol_m, double slack_m) {
+  const std::vector<Shape> shapes = shapes_of(formats);
+  std::vector<FootprintMove> moves;
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    for (auto& t : short_splits(boxes[i].rect, shapes, tol_m, slack_m)) moves.push_back({{i}, std::move(t)});
+  }
+  return moves;
+}
+
 std::vector<FrameBox> moves_overlay(const std::vector<FrameBox>& boxes, const std::vector<FootprintMove>& moves) {
   std::vector<bool> moved(boxes.size(), false);
   for (const auto& m : moves) {
@@ -115,12 +178,20 @@ std::vector<FrameBox> moves_overlay(const std::vector<FrameBox>& boxes, const st
 }
 
 RetileResult retile_by_seams(std::vector<FrameBox>* boxes, const std::vector<BoxFormat>& formats,
-                             const SeamLikelihood* lik, double tol_m, double decisive_nats) {
+                             const SeamLikelihood* lik, double tol_m, double slack_m, double decisive_nats) {
   RetileResult res;
-  // Each applied move turns boxes into others of the same footprint; at most one move per box
-  // and round, and a box count bound keeps the loop finite.
+  // Each applied move turns boxes into others of the same footprint (or splits one into the two
+  // it was laid over); at most one move per box and round, and a box count bound keeps the loop
+  // finite.
   for (std::size_t round = 0; round <= 2 * boxes->size(); ++round) {
-    const std::vector<FootprintMove> moves = footprint_moves(*boxes, formats, tol_m);
+    std::vector<FootprintMove> moves = footprint_moves(*boxes, formats, tol_m);
+    const std::size_t outline_equal = moves.size();
+    if (lik != nullptr && lik->usable()) {
+      // Splits leave the gaps uncovered: only a seam that shows decides for one, never a tie.
+      std::vector<FootprintMove> splits = split_moves(*boxes, formats, tol_m, slack_m);
+      moves.insert(moves.end(), std::make_move_iterator(splits.begin()),
+                   std::make_move_iterator(splits.end()));
+    }
     if (moves.empty()) return res;
     if (lik == nullptr || (!lik->usable() && !lik->reads_tape())) {
       res.tied = true;  // outline-equal layouts and no usable seams
@@ -138,7 +209,7 @@ RetileResult retile_by_seams(std::vector<FrameBox>* boxes, const std::vector<Box
         best_ev = ev;
         best = k;
       }
-      tied = tied || std::abs(ev) < decisive_nats;
+      tied = tied || (k < outline_equal && std::abs(ev) < decisive_nats);
     }
     if (best_ev < decisive_nats) {
       res.tied = tied;

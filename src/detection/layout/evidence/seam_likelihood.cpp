@@ -110,6 +110,19 @@ std::map<SeamLikelihood::PieceKey, double> SeamLikelihood::pieces(const std::vec
   return out;
 }
 
+bool SeamLikelihood::along_a_side(const std::vector<FrameBox>& boxes, const PieceKey& key) {
+  const double mid = (static_cast<double>(key.index) + 0.5) * kPiece_m;
+  bool on = false;
+  for (const auto& fb : boxes) {
+    for_each_box_side(fb.rect, 0.0, [&](const BoxSide& side) {
+      on = on || (side.vertical == key.vertical && std::llround(side.pos / kKey_m) == key.pos_key &&
+                  mid >= side.lo && mid <= side.hi);
+    });
+    if (on) return true;
+  }
+  return false;
+}
+
 bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& candidates) {
   usable_ = false;
   measured_ = false;
@@ -222,10 +235,13 @@ double SeamLikelihood::compare(const std::vector<FrameBox>& a, const std::vector
     int sign;
   };
   std::vector<Diff> diff;
+  // A piece near the end of a box side is not read (the corner margin): where the other layout
+  // has a box side along the same line there, it predicts that seam too (a box split in two ends
+  // its halves where the whole box runs on).
   for (const auto& [k, pos] : pa)
-    if (pb.count(k) == 0) diff.push_back({k, pos, +1});
+    if (pb.count(k) == 0 && !along_a_side(b, k)) diff.push_back({k, pos, +1});
   for (const auto& [k, pos] : pb)
-    if (pa.count(k) == 0) diff.push_back({k, pos, -1});
+    if (pa.count(k) == 0 && !along_a_side(a, k)) diff.push_back({k, pos, -1});
   std::sort(diff.begin(), diff.end(), [](const Diff& x, const Diff& y) { return x.key < y.key; });
   double d = 0.0, absent = 0.0;
   for (std::size_t i = 0; i < diff.size();) {

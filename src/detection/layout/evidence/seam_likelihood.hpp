@@ -89,6 +89,8 @@ class SeamLikelihood {
   [[nodiscard]] std::map<PieceKey, double> pieces(const std::vector<FrameBox>& boxes) const;
 
  private:
+  /// Whether a side of one of the boxes runs along the piece (its whole length, corners included).
+  [[nodiscard]] static bool along_a_side(const std::vector<FrameBox>& boxes, const PieceKey& key);
   [[nodiscard]] double contrast(const PieceKey& k, double pos) const;
   [[nodiscard]] double llr(double c) const;
   /// llr() for a piece on a line of the given axis: where the frame shows no seam reference
@@ -122,6 +124,11 @@ struct FootprintMove {
 /// within tol_m.
 std::vector<FootprintMove> footprint_moves(const std::vector<FrameBox>& boxes, const std::vector<BoxFormat>& formats,
                                            double tol_m);
+/// Every split of one box into two boxes of the recipe that fall short of it by more than tol_m
+/// and at most slack_m along each side (a larger box laid over two cartons and their gaps);
+/// a few placements of each within the box's rectangle.
+std::vector<FootprintMove> split_moves(const std::vector<FrameBox>& boxes,
+                                       const std::vector<BoxFormat>& formats, double tol_m, double slack_m);
 /// The layout with every move applied at once (moves may overlap: for calibration only).
 std::vector<FrameBox> moves_overlay(const std::vector<FrameBox>& boxes, const std::vector<FootprintMove>& moves);
 
@@ -133,8 +140,10 @@ struct RetileResult {
 /// layer with several formats has 2^n outline-equal ones (each 600 x 400 box or two 400 x 300).
 /// The moves are independent (each changes the pieces inside its footprint only), so they are
 /// decided one at a time: the move with the strongest evidence above decisive_nats is applied,
-/// until none is left. Without usable seams, any move is a tie. `lik` may be null.
+/// until none is left. Without usable seams, any move is a tie. Where the seams are usable, a
+/// split_moves() split (slack_m) is applied when its evidence decides; undecided it is no tie
+/// (the outline preferred the larger box). `lik` may be null.
 RetileResult retile_by_seams(std::vector<FrameBox>* boxes, const std::vector<BoxFormat>& formats,
-                             const SeamLikelihood* lik, double tol_m, double decisive_nats);
+                             const SeamLikelihood* lik, double tol_m, double slack_m, double decisive_nats);
 
 }  // namespace palletd::layout_detail
