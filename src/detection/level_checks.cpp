@@ -39,6 +39,10 @@ constexpr double kUnlaidPieceShare = 0.5;
 /// camera sees sides (exact layouts stay under 1.4 pitches on every generated set).
 constexpr double kMaxSigma_px = 2.0;
 constexpr double kMinSigmaLimit_mm = 5.0;
+/// A box completed where the depth ends and turned more than this against the boxes seen whole
+/// rests on too little of it [deg] (cartons of a layer stand square to each other within a degree
+/// or two).
+constexpr double kTurnedUnseen_deg = 5.0;
 /// A sheet covers a whole layer: a tiling of at least this many boxes (a stepped remainder of one
 /// to three cartons is no sheet).
 constexpr std::size_t kMinSheetBoxes = 4;
@@ -158,6 +162,29 @@ std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, cons
            "they keep the search's place, unconfirmed";
   if (why.empty()) return std::nullopt;
   return LevelVerdict{DetectionStatus::kOk, why};
+}
+
+std::optional<LevelVerdict> turned_unseen_boxes(const LayoutResult& layout) {
+  const auto seen = std::find_if(layout.boxes.begin(), layout.boxes.end(),
+                                 [](const LayoutBox& b) { return !b.partly_unseen; });
+  if (seen == layout.boxes.end()) return std::nullopt;
+  const double quarter = 0.5 * M_PI;
+  std::size_t turned = 0;
+  double most_deg = 0.0;
+  for (const LayoutBox& b : layout.boxes) {
+    if (!b.partly_unseen) continue;
+    const double d = std::remainder(b.yaw_rad - seen->yaw_rad, quarter);  // within +/- 45 degrees
+    const double d_deg = std::abs(d) * 180.0 / M_PI;
+    if (d_deg <= kTurnedUnseen_deg) continue;
+    ++turned;
+    most_deg = std::max(most_deg, d_deg);
+  }
+  if (turned == 0) return std::nullopt;
+  std::ostringstream s;
+  s << turned << " box(es) completed where the depth ends stand turned by up to " << std::lround(most_deg)
+    << " degrees against the boxes seen whole: the part seen cannot tell a turned carton from a box fitted "
+       "askew to a few edges";
+  return LevelVerdict{DetectionStatus::kOk, s.str()};
 }
 
 std::optional<LevelVerdict> undersized_boxes(const LayoutResult& layout,
@@ -318,6 +345,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (std::optional<LevelVerdict> crossed = seams_across_boxes(layout)) return crossed;
   if (std::optional<LevelVerdict> small = undersized_boxes(layout, formats, refine)) return small;
   if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, refine)) return unsure;
+  if (std::optional<LevelVerdict> turned = turned_unseen_boxes(layout)) return turned;
   if (std::optional<LevelVerdict> crowded = overlapping_boxes(layout, refine)) return crowded;
   return search_unfinished(layout);
 }

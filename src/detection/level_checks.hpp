@@ -83,6 +83,11 @@ std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const 
 /// (kOk); max_position_sigma_mm 0 = never.
 std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, const RefineParams& refine);
 
+/// Boxes completed where the depth ends (partly_unseen) whose yaw differs from the boxes seen
+/// whole by more than 5 degrees (modulo a quarter turn): the part seen cannot tell a turned
+/// carton from a box fitted askew to a few edges: flagged (kOk). Nothing without a box seen whole.
+std::optional<LevelVerdict> turned_unseen_boxes(const LayoutResult& layout);
+
 /// The search ended on its budget (LayoutResult::budget_exhausted) on a camera that does not show
 /// narrow seams (only the outline decides, and the search stopped before it could rule out
 /// another layout explaining it as well: a pinwheel's mirror, other formats), or on any camera
@@ -108,7 +113,7 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
 /// After the layout: deck_above_floor when the layout failed or is flagged, or a box covers a slot
 /// or a hole, or a piece of the layer holds no box; then those flags; else slip_sheet,
 /// formats_undecided, mix_by_outline, seams_across_boxes, undersized_boxes, uncertain_positions,
-/// overlapping_boxes (`refine`), search_unfinished.
+/// turned_unseen_boxes, overlapping_boxes (`refine`), search_unfinished.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,

@@ -1,10 +1,10 @@
 // The flags level_checks.hpp raises on a camera that does not show narrow seams (a coarse pixel
 // pitch, or no mixed pixels at edges: stereo, structured light): a layout that mixes formats, a
 // search that ended on its budget. Where the camera shows seams, the seams decide and neither flags
-// (unless the seams of a mix do not show where its boxes meet),
-// and a seam across a box's top flags; on every camera: boxes placed less surely than the limit,
+// (unless the seams of a mix do not show where its boxes meet), and a seam across a box's top
+// flags; on every camera: boxes placed less surely than the limit,
 // boxes measured shorter than their format, boxes that reach into each other, pieces of the layer
-// without boxes, boxes the depth sees through.
+// without boxes, boxes the depth sees through, boxes completed where the depth ends and turned.
 #include <catch2/catch.hpp>
 
 #include "palletd/detection/layout.hpp"
@@ -70,6 +70,25 @@ TEST_CASE("a mix of formats whose seams do not show where its boxes meet is flag
   LayoutResult one_format = layout_seen(0.004, 0.8, {1, 1, 1});
   one_format.interior_seams.length_m = 1.2;
   CHECK_FALSE(mix_by_outline(one_format));  // nothing to mix up, seams or not
+}
+
+TEST_CASE("a box completed where the depth ends and turned against the boxes seen whole is flagged",
+          "[cell][flags]") {
+  LayoutResult layout = layout_seen(0.004, 0.8, {0, 0, 0});
+  for (LayoutBox& b : layout.boxes) b.yaw_rad = 0.1;
+  layout.boxes[2].partly_unseen = true;
+  layout.boxes[2].yaw_rad = 0.1 + 0.5 * M_PI + 0.02;  // a quarter turn and a degree: square to them
+  CHECK_FALSE(turned_unseen_boxes(layout));
+  layout.boxes[2].yaw_rad = 0.1 - 0.28;  // 16 degrees
+  const std::optional<LevelVerdict> v = turned_unseen_boxes(layout);
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message,
+             Catch::Contains("1 box(es) completed where the depth ends stand turned by up to 16 degrees"));
+  layout.boxes[2].partly_unseen = false;  // seen whole: a turned carton, its sides tell
+  CHECK_FALSE(turned_unseen_boxes(layout));
+  for (LayoutBox& b : layout.boxes) b.partly_unseen = true;  // none seen whole: nothing to compare with
+  CHECK_FALSE(turned_unseen_boxes(layout));
 }
 
 TEST_CASE("a search that ended on its budget is flagged where only the outline decides", "[cell][flags]") {
