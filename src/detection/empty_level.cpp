@@ -106,6 +106,36 @@ bool deck_boards(const LayerResult& layer, const std::vector<BoxFormat>& formats
   return true;
 }
 
+/// The level's outline in mm, to tell the points of the layer plane inside it (not in a hole).
+class LevelOutline {
+ public:
+  explicit LevelOutline(const LayerResult& layer) {
+    for (const PolygonWithHoles& piece : layer.polygons) {
+      if (piece.outer.size() < 3) continue;
+      pieces_.push_back({level_detail::points_mm(piece.outer), {}});
+      for (const Ring2d& hole : piece.holes)
+        if (hole.size() >= 3) pieces_.back().holes.push_back(level_detail::points_mm(hole));
+    }
+  }
+  /// q in the layer frame [m].
+  [[nodiscard]] bool contains(const Eigen::Vector2d& q) const {
+    const cv::Point2f q_mm(static_cast<float>(1e3 * q.x()), static_cast<float>(1e3 * q.y()));
+    return std::any_of(pieces_.begin(), pieces_.end(), [&](const Piece& piece) {
+      return cv::pointPolygonTest(piece.outer, q_mm, false) > 0 &&
+             std::none_of(piece.holes.begin(), piece.holes.end(), [&](const std::vector<cv::Point2f>& hole) {
+               return cv::pointPolygonTest(hole, q_mm, false) > 0;
+             });
+    });
+  }
+
+ private:
+  struct Piece {
+    std::vector<cv::Point2f> outer;
+    std::vector<std::vector<cv::Point2f>> holes;
+  };
+  std::vector<Piece> pieces_;
+};
+
 }  // namespace
 
 std::optional<double> layer_base_z_m(const LayerResult& layer,
@@ -171,12 +201,18 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
   constexpr int kBins = 400;  // down to 4 m
   std::vector<int> bins(kBins, 0);
   const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(cloud.points.size()) / 1e4)));
+  // The floor shows around the level or through its holes (a deck's slots), never inside its
+  // outline: there a noisy camera spreads the level's own points below it.
+  const Eigen::Isometry3d T_layer_camera = layer.T_camera_layer.inverse();
+  const LevelOutline level(layer);
   std::size_t sampled = 0;
   for (int v = 0; v < cloud.height; v += step) {
     for (int u = 0; u < cloud.width; u += step) {
       const Eigen::Vector3f& p = cloud.at(u, v);
       if (!p.allFinite() || p.z() < validity.min_depth_m || p.z() > validity.max_depth_m) continue;
       ++sampled;
+      const Eigen::Vector3d q = T_layer_camera * p.cast<double>();
+      if (level.contains(q.head<2>())) continue;
       const double below_m = a.dot(p.cast<double>()) + b_m;
       const int b = static_cast<int>(below_m / kBin_m);
       if (below_m > 0.0 && b < kBins) ++bins[static_cast<std::size_t>(b)];
