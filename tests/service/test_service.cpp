@@ -401,8 +401,12 @@ TEST_CASE("a shadow configuration runs after every result, counts where it diffe
   CHECK(service.health().shadow_enabled);
   palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
   REQUIRE(plc.connect().ok());
+  // The shadow runs at idle priority: beside other tests on both cores it waits until a core is
+  // free, so the wait is long (it ends as soon as the run is counted).
   const auto wait_runs = [&service](std::uint64_t runs) {
-    for (int i = 0; i < 1000 && service.health().shadow_runs + service.health().shadow_skipped < runs; ++i)
+    const auto until = std::chrono::steady_clock::now() + 60s * PALLETD_TEST_TIME_SCALE;
+    while (std::chrono::steady_clock::now() < until &&
+           service.health().shadow_runs + service.health().shadow_skipped < runs)
       std::this_thread::sleep_for(10ms);
   };
   REQUIRE(plc.trigger(static_cast<std::uint16_t>(recipe), 1, 10s).ok());
