@@ -58,6 +58,7 @@ stage_release() {
     "${link_args[@]}" "${extra_args[@]}" >/dev/null || return 1
   cmake --build "$build_dir" -j "$jobs" || return 1
   npm_deps "$build_dir"
+  rm -f "$build_dir/Testing/Temporary/LastTestsFailed.log"
   ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-}
 }
 
@@ -84,6 +85,7 @@ stage_asan() {
     -DPALLETD_BUILD_TESTS=ON >/dev/null || return 1
   cmake --build "$build_dir" -j "$jobs" || return 1
   npm_deps "$build_dir"
+  rm -f "$build_dir/Testing/Temporary/LastTestsFailed.log"
   (
     # shellcheck source=tests/sanitizers/env.sh
     source tests/sanitizers/env.sh
@@ -117,6 +119,7 @@ stage_tsan() {
   cmake -S . -B "$build_dir" "${san_args[@]}" "${werror[@]}" -DPALLETD_SANITIZE_THREAD=ON >/dev/null || return 1
   cmake --build "$build_dir" -j "$jobs" --target "${tsan_targets[@]}" || return 1
   npm_deps "$build_dir"
+  rm -f "$build_dir/Testing/Temporary/LastTestsFailed.log"
   (
     source tests/sanitizers/env.sh
     ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -R "$tsan_tests" -E "$tsan_exclude" \
@@ -127,6 +130,33 @@ stage_tsan() {
 stage_fuzz() {  # in the asan stage's build folder (built there already when that stage ran)
   FUZZ_BUILD_DIR=${FUZZ_BUILD_DIR:-${BUILD_DIR_ASAN:-build-asan}} JOBS=$jobs \
     scripts/fuzz.sh "${PALLETD_FUZZ_SECONDS:-30}"
+}
+
+# What a failed stage's tests printed, at the end of the log where a CI summary that keeps only the
+# tail still shows it: the names ctest lists as failed and the last lines each one printed.
+report_failed_tests() {
+  local log_dir=$1/Testing/Temporary
+  [[ -s "$log_dir/LastTestsFailed.log" ]] || return 0
+  echo "--- $2: failed tests ($1) ---" >&2
+  cut -d: -f2- "$log_dir/LastTestsFailed.log" >&2
+  [[ -f "$log_dir/LastTest.log" ]] || return 0
+  cut -d: -f2- "$log_dir/LastTestsFailed.log" | head -n 3 | while IFS= read -r name; do
+    echo "--- $name: last lines of its output ---" >&2
+    awk -v name="$name" '
+      $0 ~ /^[0-9]+\/[0-9]+ Test: / { sub(/^[0-9]+\/[0-9]+ Test: /, ""); on = ($0 == name); n = 0; next }
+      on && /^<end of output>/ { on = 0 }
+      on { lines[n++ % 30] = $0; total = n }
+      END { s = total > 30 ? total - 30 : 0; for (i = s; i < total; i++) print lines[i % 30] }
+    ' "$log_dir/LastTest.log" >&2
+  done
+}
+stage_build_dir() {
+  case "$1" in
+    release) echo "${BUILD_DIR:-build}" ;;
+    asan) echo "${BUILD_DIR_ASAN:-build-asan}" ;;
+    tsan) echo "${BUILD_DIR_TSAN:-build-tsan}" ;;
+    *) echo "" ;;
+  esac
 }
 
 failed=()
@@ -144,6 +174,10 @@ if [[ ${#summary[@]} -gt 1 ]]; then
   printf '%s\n' "${summary[@]}" >&2
 fi
 if [[ ${#failed[@]} -gt 0 ]]; then
+  for stage in "${failed[@]}"; do
+    dir=$(stage_build_dir "$stage")
+    if [[ -n "$dir" ]]; then report_failed_tests "$dir" "$stage"; fi
+  done
   echo "test.sh: failed stage(s): ${failed[*]}" >&2
   exit 1
 fi
