@@ -64,47 +64,58 @@ std::vector<std::vector<FrameBox>> tilings(const Rect& r, const std::vector<Shap
 /// rest is the gap between them), from all in the gap to the boxes meeting in the middle.
 constexpr std::array<double, 4> kOutsideShares{0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0};
 
+Rect transposed(const Rect& r) { return {r.y0, r.x0, r.y1, r.x1}; }
+
+/// A box's size along the split direction and across it.
+struct Span {
+  double along, across;
+};
+
+/// Two boxes a and b side by side along x inside r (a at the low end), with share of the spare
+/// length outside them, each low, centred or high across: the placements when both fall short
+/// of r by more than tol and at most slack and the split line is not r's long middle.
+std::vector<std::array<Rect, 2>> splits_along_x(const Rect& r, Span a, Span b, double share, double tol,
+                                                double slack) {
+  const double w = r.x1 - r.x0, h = r.y1 - r.y0;
+  auto fits = [&](double need, double have) { return need <= have + tol && need >= have - slack; };
+  const bool exact =
+      std::abs(a.across - h) < tol && std::abs(b.across - h) < tol && std::abs(a.along + b.along - w) < tol;
+  const bool long_middle =
+      h > w && std::abs(r.x0 + a.along + 0.5 * (w - a.along - b.along) - 0.5 * (r.x0 + r.x1)) < tol;
+  if (!fits(a.across, h) || !fits(b.across, h) || !fits(a.along + b.along, w) || exact || long_middle)
+    return {};
+  auto across = [&](double size, int k) {  // k: low, centred, high
+    const double spare = std::max(0.0, h - size);
+    const double lo = k == 0 ? r.y0 : (k == 1 ? r.y0 + 0.5 * spare : r.y1 - size);
+    return std::pair<double, double>{lo, std::min(r.y1, lo + size)};
+  };
+  const double outer = 0.5 * share * std::max(0.0, w - a.along - b.along);
+  std::vector<std::array<Rect, 2>> out;
+  for (int k = 0; k < 3; ++k) {
+    const auto [ya0, ya1] = across(a.across, k);
+    const auto [yb0, yb1] = across(b.across, k);
+    out.push_back({Rect{r.x0 + outer, ya0, r.x0 + outer + a.along, ya1},
+                   Rect{r.x1 - outer - b.along, yb0, r.x1 - outer, yb1}});
+  }
+  return out;
+}
+
 /// Splits of r into two boxes of the recipe whose sizes fall short of r by more than tol and at
 /// most slack: the boxes a larger box was laid over, with their gaps. The split line never runs
 /// along r's long middle (tape along a carton's flaps lies there).
 std::vector<std::vector<FrameBox>> short_splits(const Rect& r, const std::vector<Shape>& shapes, double tol,
                                                 double slack) {
   std::vector<std::vector<FrameBox>> out;
-  const double w = r.x1 - r.x0, h = r.y1 - r.y0;
-  auto fits = [&](double need, double have) { return need <= have + tol && need >= have - slack; };
-  auto across = [&](double lo, double hi, double size, int k) {  // k: low, centred, high
-    const double spare = std::max(0.0, (hi - lo) - size);
-    const double a = k == 0 ? lo : (k == 1 ? lo + 0.5 * spare : hi - size);
-    return std::pair<double, double>{a, std::min(hi, a + size)};
-  };
   for (const Shape& a : shapes) {
     for (const Shape& b : shapes) {
-      const bool along_x =
-          fits(a.dy, h) && fits(b.dy, h) && fits(a.dx + b.dx, w) &&
-          !(std::abs(a.dy - h) < tol && std::abs(b.dy - h) < tol && std::abs(a.dx + b.dx - w) < tol);
-      const bool along_y =
-          fits(a.dx, w) && fits(b.dx, w) && fits(a.dy + b.dy, h) &&
-          !(std::abs(a.dx - w) < tol && std::abs(b.dx - w) < tol && std::abs(a.dy + b.dy - h) < tol);
+      auto add = [&](const std::array<Rect, 2>& p) {
+        out.push_back({{p[0], a.format, a.long_along_x}, {p[1], b.format, b.long_along_x}});
+      };
       for (const double share : kOutsideShares) {
-        if (along_x &&
-            !(h > w && std::abs(r.x0 + a.dx + 0.5 * (w - a.dx - b.dx) - 0.5 * (r.x0 + r.x1)) < tol)) {
-          const double spare = std::max(0.0, w - a.dx - b.dx), outer = 0.5 * share * spare;
-          for (int k = 0; k < 3; ++k) {
-            const auto [ya0, ya1] = across(r.y0, r.y1, a.dy, k);
-            const auto [yb0, yb1] = across(r.y0, r.y1, b.dy, k);
-            out.push_back({{{r.x0 + outer, ya0, r.x0 + outer + a.dx, ya1}, a.format, a.long_along_x},
-                           {{r.x1 - outer - b.dx, yb0, r.x1 - outer, yb1}, b.format, b.long_along_x}});
-          }
-        }
-        if (along_y &&
-            !(w > h && std::abs(r.y0 + a.dy + 0.5 * (h - a.dy - b.dy) - 0.5 * (r.y0 + r.y1)) < tol)) {
-          const double spare = std::max(0.0, h - a.dy - b.dy), outer = 0.5 * share * spare;
-          for (int k = 0; k < 3; ++k) {
-            const auto [xa0, xa1] = across(r.x0, r.x1, a.dx, k);
-            const auto [xb0, xb1] = across(r.x0, r.x1, b.dx, k);
-            out.push_back({{{xa0, r.y0 + outer, xa1, r.y0 + outer + a.dy}, a.format, a.long_along_x},
-                           {{xb0, r.y1 - outer - b.dy, xb1, r.y1 - outer}, b.format, b.long_along_x}});
-          }
+        for (const auto& p : splits_along_x(r, {a.dx, a.dy}, {b.dx, b.dy}, share, tol, slack)) add(p);
+        // Along y: the same in r transposed.
+        for (const auto& p : splits_along_x(transposed(r), {a.dy, a.dx}, {b.dy, b.dx}, share, tol, slack)) {
+          add({transposed(p[0]), transposed(p[1])});
         }
       }
     }
