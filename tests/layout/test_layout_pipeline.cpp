@@ -350,6 +350,23 @@ TEST_CASE("detect() does not take a noisy level's own points for the floor of an
   CHECK(run.detection.message.find("above the floor") == std::string::npos);
 }
 
+// N2 0003 of `palletctl simulate --out N2 -n 60 --pattern all --oversize-max 0.03 --corner-radius
+// 3:8 --gap-max 20 --profile all --extra-format 420x320 --seed 90962`: a brick layer of fourteen
+// 300 x 200 (blaze101), the recipe with a 420 x 320 that is not there. Two 300 x 200 side by side
+// with a 20 mm gap are nearly a 420 x 320, so the search meets a mix at nearly every cell; its
+// greedy dive took the largest box first and gave a poor incumbent, and the search ran out of
+// budget with a mix of 11 boxes, flagged for it. A dive of each format alone gives the layer's
+// own tiling as the incumbent: it prunes the mixes that cannot come near it, and where the budget
+// still ends the search first it is the answer (a layout of one format on a camera that shows
+// its seams is not flagged for the budget).
+TEST_CASE("a layer of one format beside an absent larger one is tiled by that format") {
+  const BundledRun run = run_bundled("flags/brick_300x200_absent_420x320_blaze101");
+  CHECK(run.eval.status == "ok");
+  CHECK(run.eval.exact);
+  CHECK_FALSE(run.eval.ambiguous);
+  CHECK(run.detection.ambiguity_reason.find("budget") == std::string::npos);
+}
+
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {
   LayoutParams p;
   p.search.time_budget_ms = 2000.0;

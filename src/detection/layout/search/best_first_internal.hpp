@@ -108,7 +108,9 @@ class BestFirstSearch {
   bool dominated(const Node& child, std::size_t idx);
   void drop_last_node();
   std::size_t make_child(int k, int pi);
-  void dive(int k);
+  /// Greedy dive from node k: the first fitting placement of each cell (of `format` only, or
+  /// of any format for -1).
+  void dive(int k, int format);
   [[nodiscard]] double score_of(int k) const;
   [[nodiscard]] double floor_score() const;
   void fill_solution(ComponentSolution* sol);

@@ -34,7 +34,12 @@ ComponentSolution BestFirstSearch::run() {
   ComponentSolution sol;
   if (!build(&sol.reason)) return sol;
   start_search();
-  dive(0);
+  dive(0, -1);
+  // One dive per format too: a layer of one format among absent ones is tiled by it, and its
+  // score as the incumbent prunes the mixes that cannot come near it.
+  if (formats_.size() > 1) {
+    for (int f = 0; f < static_cast<int>(formats_.size()); ++f) dive(0, f);
+  }
   search_best_first(&sol);
   fill_solution(&sol);
   return sol;
@@ -75,7 +80,7 @@ void BestFirstSearch::search_best_first(ComponentSolution* sol) {
       if (take_complete(k, sol)) break;
       continue;
     }
-    if (best_ < 0 && (pops_ & kDiveMask) == 0) dive(k);
+    if (best_ < 0 && (pops_ & kDiveMask) == 0) dive(k, -1);
     expand(item, cur.cursor);
     if (exhausted_) break;
   }
@@ -189,17 +194,20 @@ std::size_t BestFirstSearch::make_child(int k, int pi) {
   return idx;
 }
 
-// Incumbent: a complete layout from greedy dives (largest fitting box first). It only tightens
-// the pruning (nothing below incumbent - margin can be within the margin of the best), so the
-// bound stays admissible; when the budget runs out, it is a complete answer.
-void BestFirstSearch::dive(int k) {
+// Incumbent: a complete layout from greedy dives (most promising fitting box first, of any format
+// or of one format only). It only tightens the pruning (nothing below incumbent - margin can be
+// within the margin of the best), so the bound stays admissible; when the budget runs out, it is
+// a complete answer.
+void BestFirstSearch::dive(int k, int format) {
   while (!nodes_[static_cast<std::size_t>(k)].complete) {
     if (nodes_.size() >= max_nodes_) return;
     const int c = nodes_[static_cast<std::size_t>(k)].cursor;
     const auto& list = placements_[static_cast<std::size_t>(c)];
     int pick = -1;
     for (int pi = 0; pi < static_cast<int>(list.size()); ++pi) {
-      if (fits(occ(static_cast<std::size_t>(k)), c, list[static_cast<std::size_t>(pi)])) {
+      const Placement& p = list[static_cast<std::size_t>(pi)];
+      if (format >= 0 && shapes_[static_cast<std::size_t>(p.shape)].format != format) continue;
+      if (fits(occ(static_cast<std::size_t>(k)), c, p)) {
         pick = pi;
         break;
       }
