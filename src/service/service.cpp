@@ -298,14 +298,15 @@ class Service::Impl {
     snapshot->latency_ms = ms_between(event.time, done);
     snapshot->time = std::chrono::system_clock::now();
     snapshot->frame = frame;
-    // The format flags (base or camera frame) must describe this result when ResultReady rises.
+    // The format flags (base or camera frame) must describe this result when ResultReady rises,
+    // and the status page (latest()) shows it by then.
     publish_status(acquisition_->camera());
-    server_.publish_result(std::make_shared<const modbus::ResultRecord>(record));
-    results_.fetch_add(1);
     {
       std::lock_guard<std::mutex> lock(latest_mutex_);
       latest_ = snapshot;
     }
+    server_.publish_result(std::make_shared<const modbus::ResultRecord>(record));
+    results_.fetch_add(1);
     const bool detected = frame && !snapshot->check;  // a check reuses the last detection's figures
     if (detected) update_health(*frame, snapshot->detection);  // after the result: never delays it
     if (result_listener_) result_listener_(*snapshot);

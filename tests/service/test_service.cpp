@@ -124,8 +124,9 @@ TEST_CASE("with a gripper the pick block over Modbus holds the detection's group
   REQUIRE(result.ok());
   REQUIRE(result->result.ids_agree());  // 200 = 530 = 540 = 902
   const auto& rec = result->result.record;
-  const auto snapshot = service.latest();
+  const auto snapshot = service.latest();  // this result's as ResultReady rose
   REQUIRE(snapshot != nullptr);
+  CHECK(snapshot->request_id == 77);
   const palletd::Detection& d = snapshot->detection;
   REQUIRE(d.status == palletd::DetectionStatus::kOk);
   CHECK(rec.picking);

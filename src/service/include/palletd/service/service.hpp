@@ -46,6 +46,7 @@ class Service {
   /// SaveSnapshot bit's path); an error when recording is not configured.
   Status request_snapshot();
 
+  /// The last result; it is this result's by the time the PLC sees ResultReady rise.
   [[nodiscard]] std::shared_ptr<const ResultSnapshot> latest() const;
   [[nodiscard]] ServiceHealth health() const;
   /// A one-line readable state for sd_notify STATUS= ("ready: 12 triggers, camera ok").
