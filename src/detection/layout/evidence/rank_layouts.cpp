@@ -93,8 +93,7 @@ Ranking rank_by_likelihood(const std::vector<Candidate>& cands, const std::vecto
   for (std::size_t n : near) {
     if (cands[n].orientation != slot) return {};
   }
-  SeamLikelihood lik(*judge.seams, frames.frame(slot), frames.polygon(slot), judge.merge_tol_m,
-                     params.seams.margin_m, judge.absent_cap_nats);
+  SeamLikelihood& lik = *frames.likelihood(slot, judge, params.seams.margin_m);
   std::vector<const std::vector<FrameBox>*> layouts;
   for (std::size_t n : near) layouts.push_back(&cands[n].boxes);
   const bool seams_usable = lik.calibrate(layouts);
@@ -157,6 +156,16 @@ std::size_t ComponentFrames::add(const LayoutFrame& frame, PolygonWithHoles fram
   return frames_.size() - 1;
 }
 
+SeamLikelihood* ComponentFrames::likelihood(std::size_t i, const SeamJudge& judge, double margin_m) {
+  if (judge.seams == nullptr) return nullptr;
+  if (likelihoods_.size() < frames_.size()) likelihoods_.resize(frames_.size());
+  if (!likelihoods_[i]) {
+    likelihoods_[i] = std::make_unique<SeamLikelihood>(*judge.seams, frames_[i], polygons_[i],
+                                                       judge.merge_tol_m, margin_m, judge.absent_cap_nats);
+  }
+  return likelihoods_[i].get();
+}
+
 const SeamTable* ComponentFrames::table(std::size_t i, const SeamEvidence* seams) {
   if (seams == nullptr) return nullptr;
   if (tables_[i].empty()) tables_[i] = SeamTable(*seams, frames_[i], bounds_of(polygons_[i]));
@@ -191,7 +200,7 @@ Ranking rank_by_seams(const std::vector<Candidate>& cands, const std::vector<std
 }
 
 bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands,
-                            const std::vector<std::size_t>& near, const ComponentFrames& frames,
+                            const std::vector<std::size_t>& near, ComponentFrames& frames,
                             const std::vector<BoxFormat>& formats, const SeamJudge& judge,
                             const LayoutParams& params) {
   const double slack_m = 2.0 * kLaidOverGap_m + judge.merge_tol_m;
@@ -200,10 +209,8 @@ bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands
                                                 ? split_moves(best.boxes, formats, judge.merge_tol_m, slack_m)
                                                 : std::vector<FootprintMove>{};
   if (moves.empty() && splits.empty()) return false;
-  std::unique_ptr<SeamLikelihood> lik;
-  if (judge.seams != nullptr) {
-    lik = std::make_unique<SeamLikelihood>(*judge.seams, best.frame, frames.polygon(best.orientation),
-                                           judge.merge_tol_m, params.seams.margin_m, judge.absent_cap_nats);
+  SeamLikelihood* lik = frames.likelihood(best.orientation, judge, params.seams.margin_m);
+  if (lik != nullptr) {
     const std::vector<FrameBox> overlay = moves_overlay(best.boxes, moves);
     const std::vector<FrameBox> split_overlay = moves_overlay(best.boxes, splits);
     std::vector<const std::vector<FrameBox>*> calibration{&best.boxes, &overlay};
@@ -213,9 +220,36 @@ bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands
     }
     lik->calibrate(calibration);
   }
-  const RetileResult rr = retile_by_seams(&best.boxes, formats, lik.get(), judge.merge_tol_m, slack_m,
+  const RetileResult rr = retile_by_seams(&best.boxes, formats, lik, judge.merge_tol_m, slack_m,
                                           SeamLikelihood::decisive_nats(judge.min_short_m));
   return rr.tied;
+}
+
+std::vector<std::size_t> settle_near_candidates(std::vector<Candidate>& cands,
+                                                const std::vector<std::size_t>& near, ComponentFrames& frames,
+                                                const std::vector<BoxFormat>& formats, const SeamJudge& judge,
+                                                const LayoutParams& params, double same_tol_m,
+                                                std::vector<bool>& tied) {
+  std::vector<Candidate> settled;
+  std::vector<bool> settled_tied;
+  for (std::size_t n : near) {
+    settled.push_back(cands[n]);
+    settled_tied.push_back(
+        settle_footprint_moves(settled.back(), cands, near, frames, formats, judge, params));
+  }
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < near.size(); ++i) {
+    bool dup = false;
+    for (std::size_t k : kept) {
+      dup = dup || (std::abs(cands[k].frame.theta_rad - settled[i].frame.theta_rad) < 1e-9 &&
+                    same_layout(cands[k].boxes, settled[i].boxes, same_tol_m));
+    }
+    cands[near[i]] = std::move(settled[i]);
+    if (dup) continue;
+    tied[near[i]] = settled_tied[i];
+    kept.push_back(near[i]);
+  }
+  return kept;
 }
 
 }  // namespace palletd::layout_detail

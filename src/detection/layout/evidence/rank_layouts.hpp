@@ -4,8 +4,10 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <vector>
 
+#include "evidence/seam_likelihood.hpp"
 #include "layout_internal.hpp"
 
 namespace palletd::layout_detail {
@@ -18,8 +20,10 @@ struct Candidate {
   std::size_t orientation = 0;  ///< index of its frame in ComponentFrames
 };
 
-/// A component turned into each layout frame searched; the seam table of a frame is built the
-/// first time it is asked for.
+struct SeamJudge;
+
+/// A component turned into each layout frame searched; the seam table and the seam likelihood
+/// of a frame are built the first time they are asked for.
 class ComponentFrames {
  public:
   /// Adds a frame with the component turned into it; returns its index.
@@ -30,11 +34,15 @@ class ComponentFrames {
   [[nodiscard]] const PolygonWithHoles& polygon(std::size_t i) const { return polygons_[i]; }
   /// The seam table of frame i; null without seams or when the table is empty.
   const SeamTable* table(std::size_t i, const SeamEvidence* seams);
+  /// The seam likelihood of frame i (the seams and tape rastered into it once; calibrate() it
+  /// for the layouts at hand before each use); null without seams.
+  SeamLikelihood* likelihood(std::size_t i, const SeamJudge& judge, double margin_m);
 
  private:
   std::vector<LayoutFrame> frames_;
   std::vector<PolygonWithHoles> polygons_;
   std::vector<SeamTable> tables_;
+  std::vector<std::unique_ptr<SeamLikelihood>> likelihoods_;
 };
 
 /// The seam evidence and the recipe figures the ranking phases share.
@@ -67,8 +75,21 @@ Ranking rank_by_seams(const std::vector<Candidate>& cands, const std::vector<std
 /// the same rectangle), decided one at a time by the seams and applied to `best`. Returns
 /// whether a move the seams cannot decide remains (-> ambiguous).
 bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands,
-                            const std::vector<std::size_t>& near, const ComponentFrames& frames,
+                            const std::vector<std::size_t>& near, ComponentFrames& frames,
                             const std::vector<BoxFormat>& formats, const SeamJudge& judge,
                             const LayoutParams& params);
+
+/// settle_footprint_moves() for each near-equal candidate (each calibrated against the others as
+/// they came from the search, and written back), then the candidates that settled into the
+/// layout of an earlier one (the same frame, boxes within `same_tol_m`) dropped: near-equal
+/// layouts the seams could not rank as they were (mixes with an absent format whose larger boxes
+/// cover the cartons and their gaps) may be one layout, or fewer, once their moves are settled.
+/// Returns the indices kept, in the order of `near`; tied[n] is set for a kept candidate whose
+/// moves stayed undecided.
+std::vector<std::size_t> settle_near_candidates(std::vector<Candidate>& cands,
+                                                const std::vector<std::size_t>& near, ComponentFrames& frames,
+                                                const std::vector<BoxFormat>& formats, const SeamJudge& judge,
+                                                const LayoutParams& params, double same_tol_m,
+                                                std::vector<bool>& tied);
 
 }  // namespace palletd::layout_detail
