@@ -256,25 +256,6 @@ void complete_unseen_boxes(ComponentLayout& chosen, const PolygonWithHoles& comp
   result.completed_unseen += uc.added;
 }
 
-/// Near-equal candidates the seams could not rank as the search gave them: each one's moves
-/// settled first (settle_near_candidates), then those that stay different ranked again.
-void settle_then_rank(std::vector<Candidate>& cands, const std::vector<std::size_t>& near, Ranking ranking,
-                      ComponentFrames& frames, const LayoutContext& ctx, double same_tol_m,
-                      ComponentLayout& chosen) {
-  std::vector<bool> moves_tied(cands.size(), false);
-  std::vector<std::vector<FrameBox>> before;
-  for (std::size_t n : near) before.push_back(cands[n].boxes);
-  const std::vector<std::size_t> settled =
-      settle_near_candidates(cands, near, frames, ctx.formats, ctx.judge, ctx.params, same_tol_m, moves_tied);
-  bool moved = settled.size() != near.size();
-  for (std::size_t i = 0; i < near.size() && !moved; ++i)
-    moved = !same_layout(cands[near[i]].boxes, before[i], 1e-9);
-  if (moved) ranking = rank_by_seams(cands, settled, frames, ctx.judge, ctx.params);  // else as ranked before
-  chosen.best = cands[ranking.order.front()];
-  chosen.runner_up = ranking.order.size() > 1 ? &cands[ranking.order[1]] : nullptr;
-  chosen.ambiguous = ranking.ambiguous || moves_tied[ranking.order.front()];
-}
-
 /// Searches, ranks and completes one component's layout; false with `why` when none is found.
 bool choose_layout(const PolygonWithHoles& comp, const PolygonWithHoles& comp_edges, const LayoutContext& ctx,
                    BudgetSplit& budget, LayoutResult& result, ComponentFrames& frames,
@@ -298,16 +279,17 @@ bool choose_layout(const PolygonWithHoles& comp, const PolygonWithHoles& comp_ed
                    [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   const double same_tol_m = kSameLayoutShare * std::sqrt(ctx.extremes.min_area_m2);
   const std::vector<std::size_t> near = near_equal_candidates(cands, ctx.tie_margin_m2, same_tol_m);
-  const Ranking ranking = rank_by_seams(cands, near, frames, ctx.judge, ctx.params);
+  Ranking ranking = rank_by_seams(cands, near, frames, ctx.judge, ctx.params);
+  bool moves_tied = false;
   if (ranking.ambiguous) {
-    settle_then_rank(cands, near, ranking, frames, ctx, same_tol_m, chosen);
+    ranking = settle_then_rank(cands, near, ranking, frames, ctx.formats, ctx.judge, ctx.params, same_tol_m);
+    chosen.best = cands[ranking.order.front()];
   } else {
     chosen.best = cands[ranking.order.front()];
-    chosen.runner_up = ranking.order.size() > 1 ? &cands[ranking.order[1]] : nullptr;
-    chosen.ambiguous =
-        settle_footprint_moves(chosen.best, cands, near, frames, ctx.formats, ctx.judge, ctx.params);
+    moves_tied = settle_footprint_moves(chosen.best, cands, near, frames, ctx.formats, ctx.judge, ctx.params);
   }
-  chosen.ambiguous = chosen.ambiguous || completion_tied;
+  chosen.runner_up = ranking.order.size() > 1 ? &cands[ranking.order[1]] : nullptr;
+  chosen.ambiguous = ranking.ambiguous || moves_tied || completion_tied;
   if (ctx.surroundings != nullptr && !chosen.all_completed) {
     complete_unseen_boxes(chosen, comp_edges, frames, ctx, budget, result);
   }

@@ -225,31 +225,30 @@ bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands
   return rr.tied;
 }
 
-std::vector<std::size_t> settle_near_candidates(std::vector<Candidate>& cands,
-                                                const std::vector<std::size_t>& near, ComponentFrames& frames,
-                                                const std::vector<BoxFormat>& formats, const SeamJudge& judge,
-                                                const LayoutParams& params, double same_tol_m,
-                                                std::vector<bool>& tied) {
+Ranking settle_then_rank(std::vector<Candidate>& cands, const std::vector<std::size_t>& near, Ranking ranking,
+                         ComponentFrames& frames, const std::vector<BoxFormat>& formats,
+                         const SeamJudge& judge, const LayoutParams& params, double same_tol_m) {
   std::vector<Candidate> settled;
-  std::vector<bool> settled_tied;
+  std::vector<bool> tied(cands.size(), false);
   for (std::size_t n : near) {
     settled.push_back(cands[n]);
-    settled_tied.push_back(
-        settle_footprint_moves(settled.back(), cands, near, frames, formats, judge, params));
+    tied[n] = settle_footprint_moves(settled.back(), cands, near, frames, formats, judge, params);
   }
   std::vector<std::size_t> kept;
+  bool moved = false;
   for (std::size_t i = 0; i < near.size(); ++i) {
+    moved = moved || !same_layout(settled[i].boxes, cands[near[i]].boxes, 1e-9);
     bool dup = false;
     for (std::size_t k : kept) {
       dup = dup || (std::abs(cands[k].frame.theta_rad - settled[i].frame.theta_rad) < 1e-9 &&
                     same_layout(cands[k].boxes, settled[i].boxes, same_tol_m));
     }
     cands[near[i]] = std::move(settled[i]);
-    if (dup) continue;
-    tied[near[i]] = settled_tied[i];
-    kept.push_back(near[i]);
+    if (!dup) kept.push_back(near[i]);
   }
-  return kept;
+  if (moved) ranking = rank_by_seams(cands, kept, frames, judge, params);  // else as ranked before
+  ranking.ambiguous = ranking.ambiguous || tied[ranking.order.front()];
+  return ranking;
 }
 
 }  // namespace palletd::layout_detail

@@ -79,17 +79,14 @@ bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands
                             const std::vector<BoxFormat>& formats, const SeamJudge& judge,
                             const LayoutParams& params);
 
-/// settle_footprint_moves() for each near-equal candidate (each calibrated against the others as
-/// they came from the search, and written back), then the candidates that settled into the
-/// layout of an earlier one (the same frame, boxes within `same_tol_m`) dropped: near-equal
-/// layouts the seams could not rank as they were (mixes with an absent format whose larger boxes
-/// cover the cartons and their gaps) may be one layout, or fewer, once their moves are settled.
-/// Returns the indices kept, in the order of `near`; tied[n] is set for a kept candidate whose
-/// moves stayed undecided.
-std::vector<std::size_t> settle_near_candidates(std::vector<Candidate>& cands,
-                                                const std::vector<std::size_t>& near, ComponentFrames& frames,
-                                                const std::vector<BoxFormat>& formats, const SeamJudge& judge,
-                                                const LayoutParams& params, double same_tol_m,
-                                                std::vector<bool>& tied);
+/// The near-equal candidates the seams could not rank (`ranking`, ambiguous) as the search gave
+/// them, each with its own footprint moves settled first (each calibrated against the others as
+/// they came, and written back into `cands`): those that settled into the layout of an earlier
+/// one (the same frame, boxes within `same_tol_m`) are one, and those still different are ranked
+/// again (mixes of an absent larger format whose boxes split into the cartons they cover may be
+/// one layout then). Ambiguous also where the chosen candidate's moves stayed undecided.
+Ranking settle_then_rank(std::vector<Candidate>& cands, const std::vector<std::size_t>& near, Ranking ranking,
+                         ComponentFrames& frames, const std::vector<BoxFormat>& formats,
+                         const SeamJudge& judge, const LayoutParams& params, double same_tol_m);
 
 }  // namespace palletd::layout_detail
