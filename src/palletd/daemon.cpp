@@ -2,16 +2,17 @@
 
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
 #include <mutex>
-#include <cstdlib>
 
 #include <opencv2/core.hpp>
 #include <pthread.h>
 #include <spdlog/spdlog.h>
 #include <systemd/sd-daemon.h>
 
+#include "palletd/config/config_warnings.hpp"
 #include "palletd/metrics/metrics.hpp"
 #include "palletd/service/service.hpp"
 #include "palletd/web/web.hpp"
@@ -130,6 +131,7 @@ void reload(const DaemonOptions& options, Service& service, DaemonInfo& info) {
   try {
     Config next = load_config(options.config_path);
     apply_overrides(options, next);
+    for (const std::string& w : config_warnings(next)) spdlog::warn("{}", w);
     service.reload(next);
     info.update(next, options.config_path);
     spdlog::info("configuration reloaded from {}", options.config_path);
@@ -183,6 +185,7 @@ int run_daemon(const DaemonOptions& options, Config config) {
   cv::setNumThreads(0);
 
   apply_overrides(options, config);
+  for (const std::string& w : config_warnings(config)) spdlog::warn("{}", w);
   Service service(config);
   DaemonInfo info;
   info.update(config, options.config_path);

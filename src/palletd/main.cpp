@@ -1,6 +1,7 @@
 // palletd: the daemon. Loads and validates the configuration, then runs the service.
 //   palletd --config FILE          run (default FILE: the installed /etc/palletd/palletd.yaml)
-//   palletd --check-config FILE    validate only: "FILE: ok" and exit 0, or the error and exit 78
+//   palletd --check-config FILE    validate only: "FILE: ok" (warnings on stderr) and exit 0, or the
+//                                  error and exit 78
 //   overrides for testing: --replay DIR (replay driver, one frame per trigger, looping),
 //   --bind ADDR, --port N, --web-port N, --metrics-port N
 #include <iostream>
@@ -10,6 +11,8 @@
 #include <CLI/CLI.hpp>
 
 #include "palletd/config/config.hpp"
+#include "palletd/config/config_warnings.hpp"
+
 #include "service_entry.hpp"
 
 namespace {
@@ -59,7 +62,10 @@ int main(int argc, char** argv) {
   }
 
   if (!check_path.empty()) {
-    if (!load_or_report(check_path)) return palletd::kExitConfigError;
+    const auto checked = load_or_report(check_path);
+    if (!checked) return palletd::kExitConfigError;
+    for (const std::string& w : palletd::config_warnings(*checked))
+      std::cerr << check_path << ": warning: " << w << "\n";
     std::cout << check_path << ": ok\n";
     return 0;
   }

@@ -1,11 +1,14 @@
 // The recipe check (detection/recipe_check.hpp): the boxes' measured sides against the recipe's
-// formats, on made-up boxes and on a simulated layer detected with the right and a wrong recipe.
+// formats, on made-up boxes and on a simulated layer detected with the right and a wrong recipe;
+// formats of one recipe whose cartons look alike (detection/look_alike_formats.hpp).
 #include <catch2/catch.hpp>
 
 #include "palletd/detection/detection.hpp"
+#include "palletd/detection/look_alike_formats.hpp"
 #include "palletd/detection/recipe_check.hpp"
 #include "palletd/detection/recipe_choice.hpp"
 #include "palletd/sim/sim.hpp"
+
 #include "sim_block_layer.hpp"
 
 using namespace palletd;
@@ -124,4 +127,23 @@ TEST_CASE("a layer detected with a recipe of larger cartons answers recipe_misma
   const std::vector<RecipeCandidate> candidates = {{7, {{0.350, 0.250, "350x250", 0.0}}}, {3, right}, {9, larger}};
   CHECK(best_fitting_recipe(f.frame, candidates, params, workspace) == 3);
   CHECK_FALSE(best_fitting_recipe(f.frame, {{9, larger}}, params, workspace).has_value());
+}
+
+TEST_CASE("formats whose cartons can take the same room on a layer are look-alikes", "[recipe_check]") {
+  const std::vector<BoxFormat> formats = {{0.400, 0.300, "400x300", 0.0},
+                                          {0.420, 0.320, "420x320", 0.0},
+                                          {0.600, 0.400, "600x400", 0.0},
+                                          {0.300, 0.200, "300x200", 0.0}};
+  // 420 x 320 is a 400 x 300 built 5 % over with a 20 mm gap; 600 x 400 is two 400 x 300, which
+  // seams and tape decide, not the cartons' size; 300 x 200 is 100 mm shorter.
+  const std::vector<LookAlikeFormats> pairs = look_alike_formats(formats, 0.06, 0.02);
+  REQUIRE(pairs.size() == 1);
+  CHECK(pairs[0].a == 0);
+  CHECK(pairs[0].b == 1);
+  CHECK(pairs[0].long_diff_m == Approx(0.020));
+  CHECK(pairs[0].short_diff_m == Approx(0.020));
+  // Cartons built to their format exactly and standing pressed together: 20 mm apart is two sizes.
+  CHECK(look_alike_formats(formats, 0.0, 0.0).empty());
+  // One side alike is not enough.
+  CHECK(look_alike_formats({{0.400, 0.300, "a", 0.0}, {0.405, 0.200, "b", 0.0}}, 0.06, 0.02).empty());
 }

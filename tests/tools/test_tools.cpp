@@ -134,6 +134,26 @@ TEST_CASE("palletd --check-config rejects a bad file with exit code 78 and the p
   CHECK_THAT(missing.err, Contains("none.yaml") && Contains("not found"));
 }
 
+TEST_CASE("palletd --check-config warns of a recipe whose formats look alike, and accepts it") {
+  TempDir dir;
+  const std::string file = dir.file("alike.yaml");
+  write(file,
+        "formats:\n  - {name: small, long_mm: 400, short_mm: 300}\n  - {name: big, long_mm: 420, short_mm: "
+        "320}\n"
+        "  - {name: euro, long_mm: 600, short_mm: 400}\n"
+        "recipes:\n  - {number: 3, name: two sizes, formats: [small, big]}\n"
+        "  - {number: 4, name: euro mix, formats: [euro, small]}\n"
+        "pipeline: {default_recipe: 3}\n");
+  const Run r = run("src/palletd/palletd", {"--check-config", file});
+  INFO(r.err);
+  CHECK(r.exit_code == 0);
+  CHECK(r.out == file + ": ok\n");
+  CHECK_THAT(
+      r.err,
+      Contains(file + ": warning: recipe 3 (two sizes): formats 400x300 and 420x320 differ by 20 and 20 mm"));
+  CHECK_THAT(r.err, !Contains("recipe 4"));  // one box or two: seams and tape decide that
+}
+
 TEST_CASE("palletd --config refuses a bad file with exit code 78 before starting anything") {
   TempDir dir;
   write(dir.file("bad.yaml"), "logging: {level: loud}\n");

@@ -1,0 +1,27 @@
+// look_alike_formats(): formats of one recipe a layer cannot tell apart by their size.
+#include "palletd/detection/look_alike_formats.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace palletd {
+
+std::vector<LookAlikeFormats> look_alike_formats(const std::vector<BoxFormat>& formats, double max_oversize,
+                                                 double max_gap_m) {
+  std::vector<LookAlikeFormats> out;
+  const auto alike = [&](double x_m, double y_m) {
+    return std::abs(x_m - y_m) <= max_oversize * std::max(x_m, y_m) + max_gap_m;
+  };
+  for (std::size_t a = 0; a < formats.size(); ++a) {
+    for (std::size_t b = a + 1; b < formats.size(); ++b) {
+      const BoxFormat& fa = formats[a];
+      const BoxFormat& fb = formats[b];
+      if (alike(fa.long_m, fb.long_m) && alike(fa.short_m, fb.short_m)) {
+        out.push_back({a, b, std::abs(fa.long_m - fb.long_m), std::abs(fa.short_m - fb.short_m)});
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace palletd
