@@ -50,8 +50,19 @@ npm_deps() {  # the npm Modbus client the tests drive the handshake with (npm re
   fi
 }
 
+# Each stage's build folder (the fuzz stage uses the asan stage's).
+stage_build_dir() {
+  case "$1" in
+    release) echo "${BUILD_DIR:-build}" ;;
+    asan) echo "${BUILD_DIR_ASAN:-build-asan}" ;;
+    tsan) echo "${BUILD_DIR_TSAN:-build-tsan}" ;;
+    *) echo "" ;;
+  esac
+}
+
 stage_release() {
-  local build_dir=${BUILD_DIR:-build}
+  local build_dir
+  build_dir=$(stage_build_dir release)
   local extra_args=()
   if [[ -n "${CMAKE_ARGS:-}" ]]; then read -r -a extra_args <<<"$CMAKE_ARGS"; fi
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${werror[@]}" "${release_args[@]}" \
@@ -80,7 +91,8 @@ asan_exclude=${PALLETD_ASAN_EXCLUDE-$asan_exclude_default}
 asan_skip_labels=${PALLETD_ASAN_SKIP_LABELS-soak}
 
 stage_asan() {
-  local build_dir=${BUILD_DIR_ASAN:-build-asan}
+  local build_dir
+  build_dir=$(stage_build_dir asan)
   cmake -S . -B "$build_dir" "${san_args[@]}" -DCMAKE_CXX_COMPILER="$(clang_cxx)" -DPALLETD_BUILD_FUZZ=ON \
     -DPALLETD_BUILD_TESTS=ON >/dev/null || return 1
   cmake --build "$build_dir" -j "$jobs" || return 1
@@ -115,7 +127,8 @@ tsan_exclude='palletctl (grab|record)|pick check over Modbus'
 tsan_tests='^(palletd_daemon_tests|palletd_service_tests|palletd_modbus_tests|palletd_drivers_tests|palletd_drivers_aravis_tests|palletd_drivers_cloud_tests|palletd_drivers_openni2_tests|palletd_drivers_openni2_pairing_tests):|^palletd_modbus_(pymodbus|npm)_handshake$'
 
 stage_tsan() {
-  local build_dir=${BUILD_DIR_TSAN:-build-tsan}
+  local build_dir
+  build_dir=$(stage_build_dir tsan)
   cmake -S . -B "$build_dir" "${san_args[@]}" "${werror[@]}" -DPALLETD_SANITIZE_THREAD=ON >/dev/null || return 1
   cmake --build "$build_dir" -j "$jobs" --target "${tsan_targets[@]}" || return 1
   npm_deps "$build_dir"
@@ -128,7 +141,7 @@ stage_tsan() {
 }
 
 stage_fuzz() {  # in the asan stage's build folder (built there already when that stage ran)
-  FUZZ_BUILD_DIR=${FUZZ_BUILD_DIR:-${BUILD_DIR_ASAN:-build-asan}} JOBS=$jobs \
+  FUZZ_BUILD_DIR=${FUZZ_BUILD_DIR:-$(stage_build_dir asan)} JOBS=$jobs \
     scripts/fuzz.sh "${PALLETD_FUZZ_SECONDS:-30}"
 }
 
@@ -149,14 +162,6 @@ report_failed_tests() {
       END { s = total > 30 ? total - 30 : 0; for (i = s; i < total; i++) print lines[i % 30] }
     ' "$log_dir/LastTest.log" >&2
   done
-}
-stage_build_dir() {
-  case "$1" in
-    release) echo "${BUILD_DIR:-build}" ;;
-    asan) echo "${BUILD_DIR_ASAN:-build-asan}" ;;
-    tsan) echo "${BUILD_DIR_TSAN:-build-tsan}" ;;
-    *) echo "" ;;
-  esac
 }
 
 failed=()
