@@ -3,13 +3,13 @@
 
 #include <cmath>
 
+#include "palletd/detection/layout.hpp"
 #include "palletd/detection/look_alike_formats.hpp"
-#include "palletd/detection/unknown_cartons.hpp"
 
 namespace palletd {
 
 std::vector<std::string> config_warnings(const Config& config) {
-  const double max_gap_m = UnknownCartonParams{}.max_gap_m;
+  const double max_gap_m = kMaxCartonGap_m;
   const double max_oversize = config.detection.layout.refine.max_oversize;
   const auto mm = [](double m) { return std::to_string(static_cast<int>(std::lround(1e3 * m))); };
   const std::string oversize_pct = std::to_string(static_cast<int>(std::lround(100.0 * max_oversize)));

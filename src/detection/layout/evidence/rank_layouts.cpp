@@ -16,8 +16,6 @@ namespace {
 /// Two hypotheses whose seam agreement differs by less than this share of the shortest box
 /// side [m of seam line] are not separated by the seams (-> ambiguous).
 constexpr double kSeamSeparation = 0.3;
-/// The widest gap between cartons a box laid over two of them may cover on each side [m].
-constexpr double kLaidOverGap_m = 0.02;
 /// Seam agreement is read in pieces of this length along a line [m].
 constexpr double kAgreementPiece_m = 0.04;
 
@@ -153,12 +151,12 @@ std::size_t ComponentFrames::add(const LayoutFrame& frame, PolygonWithHoles fram
   frames_.push_back(frame);
   polygons_.push_back(std::move(frame_polygon));
   tables_.emplace_back();
+  likelihoods_.emplace_back();
   return frames_.size() - 1;
 }
 
 SeamLikelihood* ComponentFrames::likelihood(std::size_t i, const SeamJudge& judge, double margin_m) {
   if (judge.seams == nullptr) return nullptr;
-  if (likelihoods_.size() < frames_.size()) likelihoods_.resize(frames_.size());
   if (!likelihoods_[i]) {
     likelihoods_[i] = std::make_unique<SeamLikelihood>(*judge.seams, frames_[i], polygons_[i],
                                                        judge.merge_tol_m, margin_m, judge.absent_cap_nats);
@@ -203,7 +201,7 @@ bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands
                             const std::vector<std::size_t>& near, ComponentFrames& frames,
                             const std::vector<BoxFormat>& formats, const SeamJudge& judge,
                             const LayoutParams& params) {
-  const double slack_m = 2.0 * kLaidOverGap_m + judge.merge_tol_m;
+  const double slack_m = 2.0 * kMaxCartonGap_m + judge.merge_tol_m;
   const std::vector<FootprintMove> moves = footprint_moves(best.boxes, formats, judge.merge_tol_m);
   const std::vector<FootprintMove> splits = judge.seams != nullptr
                                                 ? split_moves(best.boxes, formats, judge.merge_tol_m, slack_m)

@@ -25,6 +25,11 @@
 
 namespace palletd {
 
+/// The widest gap between two cartons of a layer the detector allows for [m]: cartons stand
+/// 0-20 mm apart on real pallets. A box laid over two cartons may cover one such gap on each
+/// side; an outline's piece is divided into whole cartons with gaps up to this.
+inline constexpr double kMaxCartonGap_m = 0.02;
+
 /// The layout search: best-first canonical tiling (exact, fast; the default) or the paper's
 /// Algorithms 1-3 as published (breadth-first over corners, capped).
 enum class SearchMode { kBestFirst, kPaper };

@@ -32,7 +32,7 @@ struct UnknownCartonParams {
   int max_candidates = 10;          ///< carton sizes laid out per frame (each one a layout search)
   double min_seam_share = 0.2;      ///< a seam line counts where it runs across this share of the layer
   double outline_margin_m = 0.012;  ///< seam cells this close to the outline are not looked at [m]
-  double max_gap_m = 0.02;          ///< widest gap between cartons the outline's division allows for [m]
+  double max_gap_m = kMaxCartonGap_m;  ///< widest gap between cartons the outline's division allows for [m]
   /// A runner-up size whose seam evidence reaches this share of the best one's makes the answer
   /// ambiguous (two cartons may look like one where a seam is not seen).
   double tie_ratio = 0.8;
