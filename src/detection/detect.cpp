@@ -69,16 +69,41 @@ std::string too_many_boxes(double layer_area_m2, double smallest_box_m2) {
          " boxes of the smallest format: check the formats' sizes (millimetres) and the region of interest";
 }
 
-/// Why the layout search flagged its answer, as a sentence for the operator and a category.
-std::pair<std::string, AmbiguityKind> ambiguity_reason(const LayoutResult& layout) {
+/// Why the layout search flagged its answer: a sentence for the operator per doubt that holds
+/// (LayoutDoubts), joined, and their categories.
+std::pair<std::string, std::vector<AmbiguityKind>> ambiguity_reason(const LayoutResult& layout) {
+  const LayoutDoubts& d = layout.doubts;
+  std::string why;
+  std::vector<AmbiguityKind> kinds;
+  auto add = [&](const std::string& sentence, AmbiguityKind kind) {
+    why += (why.empty() ? "" : "; ") + sentence;
+    if (std::find(kinds.begin(), kinds.end(), kind) == kinds.end()) kinds.push_back(kind);
+  };
+  if (d.tied_layouts && !layout.runner_up.empty())
+    add("another arrangement of " + std::to_string(layout.runner_up.size()) +
+            " boxes explains the outline and the seams nearly as well",
+        AmbiguityKind::kTiedLayouts);
+  if (d.undecided_formats)
+    add("a box could as well be two boxes of another recipe format side by side, or two boxes one (the same "
+        "footprint): no seam decides where they would differ, and a gap between cartons can be pressed shut",
+        AmbiguityKind::kTiedLayouts);
+  if (d.completion)
+    add("boxes completed where the depth ends could stand otherwise, or none fits part of the layer there",
+        AmbiguityKind::kTiedLayouts);
+  if (d.uncovered)
+    add("part of the layer is not explained by the boxes found", AmbiguityKind::kUnexplainedArea);
+  if (!why.empty() && layout.budget_exhausted)
+    add("the search ended at its budget before it could rule out other arrangements",
+        AmbiguityKind::kSearchBudget);
+  if (!why.empty()) return {why, kinds};
   if (!layout.runner_up.empty())
     return {"another arrangement of " + std::to_string(layout.runner_up.size()) +
                 " boxes explains the outline and the seams nearly as well",
-            AmbiguityKind::kTiedLayouts};
+            {AmbiguityKind::kTiedLayouts}};
   if (layout.budget_exhausted)
     return {"the search ended at its budget before it could rule out other arrangements",
-            AmbiguityKind::kSearchBudget};
-  return {"part of the layer is not explained by the boxes found", AmbiguityKind::kUnexplainedArea};
+            {AmbiguityKind::kSearchBudget}};
+  return {"part of the layer is not explained by the boxes found", {AmbiguityKind::kUnexplainedArea}};
 }
 
 /// The frame's share of each box's score terms, then the calibrated confidences.
@@ -255,9 +280,9 @@ Detection lay_out_layer(const Frame& frame, const std::vector<BoxFormat>& format
   out.coverage = layout.coverage;
   out.interior_seams = layout.interior_seams;
   if (out.ambiguous) {
-    auto [reason, kind] = ambiguity_reason(layout);
+    auto [reason, kinds] = ambiguity_reason(layout);
     out.ambiguity_reason = std::move(reason);
-    out.ambiguity_kinds.push_back(kind);
+    out.ambiguity_kinds.insert(out.ambiguity_kinds.end(), kinds.begin(), kinds.end());
   }
   if (std::optional<LevelVerdict> level = level_after_layout(cloud, layout, out.layer, formats, params.plane,
                                                              params.layout.refine, frame.T_base_camera)) {

@@ -382,6 +382,26 @@ TEST_CASE("near-equal mixes that all settle into the same cartons are no tie") {
   CHECK(run.detection.ambiguity_reason.empty());
 }
 
+// T2 0048 of `palletctl simulate --out T2 -n 60 --pattern all --profile helios2 blaze101 xtion d435
+// --oversize-max 0.03 --corner-radius 3:8 --gap-max 20 --extra-format 500x350 --seed 90932`
+// (helios2): two 600 x 400 beside four 400 x 300, the recipe with a 500 x 350 too. The
+// seams rank the near-equal layouts (the right one by far), but no seam is seen across the
+// middle of one 600 x 400 with no tape: two 400 x 300 pressed together would look the same, so
+// the layout stays flagged, and the reason says that rather than naming an arrangement the
+// seams ruled out.
+TEST_CASE("a box that could be two pressed cartons is flagged for that and not for a ruled-out arrangement") {
+  const BundledRun run = run_bundled("flags/mixed_600x400_undecided_split_helios2");
+  CHECK(run.eval.status == "ok");
+  CHECK(run.eval.exact);
+  CHECK(run.eval.ambiguous);
+  const std::string& why = run.detection.ambiguity_reason;
+  INFO(why);
+  CHECK(why.find("a box could as well be two boxes of another recipe format") != std::string::npos);
+  CHECK(why.find("another arrangement") == std::string::npos);
+  CHECK(std::count(run.detection.ambiguity_kinds.begin(), run.detection.ambiguity_kinds.end(),
+                   AmbiguityKind::kTiedLayouts) == 1);
+}
+
 TEST_CASE("heavily noisy seams with a label on a possible split line resolve mixed formats", "[!mayfail]") {
   LayoutParams p;
   p.search.time_budget_ms = 2000.0;

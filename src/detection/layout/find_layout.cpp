@@ -220,6 +220,7 @@ std::vector<Candidate> search_orientations(const PolygonWithHoles& comp, const P
 struct ComponentLayout {
   Candidate best;
   bool ambiguous = false;
+  LayoutDoubts doubts;         ///< why `ambiguous` is set
   bool all_completed = false;  ///< every box was completed where the depth ends
   std::size_t completed = 0;   ///< else: the last `completed` boxes were
   const Candidate* runner_up = nullptr;
@@ -253,6 +254,7 @@ void complete_unseen_boxes(ComponentLayout& chosen, const PolygonWithHoles& comp
   best.boxes = uc.boxes;
   chosen.completed = uc.added;
   chosen.ambiguous = chosen.ambiguous || uc.tied || uc.open;
+  chosen.doubts.completion = chosen.doubts.completion || uc.tied || uc.open;
   result.completed_unseen += uc.added;
 }
 
@@ -290,6 +292,7 @@ bool choose_layout(const PolygonWithHoles& comp, const PolygonWithHoles& comp_ed
   }
   chosen.runner_up = ranking.order.size() > 1 ? &cands[ranking.order[1]] : nullptr;
   chosen.ambiguous = ranking.ambiguous || moves_tied || completion_tied;
+  chosen.doubts = {ranking.ambiguous, moves_tied, completion_tied, false};
   if (ctx.surroundings != nullptr && !chosen.all_completed) {
     complete_unseen_boxes(chosen, comp_edges, frames, ctx, budget, result);
   }
@@ -299,6 +302,7 @@ bool choose_layout(const PolygonWithHoles& comp, const PolygonWithHoles& comp_ed
       largest_uncovered_m2(frames.polygon(chosen.best.orientation), chosen.best.boxes, kUncoveredGap_m) >=
           ctx.params.completion.uncovered_flag_fraction * ctx.extremes.min_area_m2) {
     chosen.ambiguous = true;
+    chosen.doubts.uncovered = true;
   }
   return true;
 }
@@ -356,6 +360,9 @@ bool solve_best_first_component(const PolygonWithHoles& comp, const PolygonWithH
   if (!choose_layout(comp, comp_edges, ctx, budget, result, frames, cands, chosen, why)) return false;
   result.score += chosen.best.score;
   result.ambiguous = result.ambiguous || chosen.ambiguous;
+  LayoutDoubts& d = result.doubts;
+  d = {d.tied_layouts || chosen.doubts.tied_layouts, d.undecided_formats || chosen.doubts.undecided_formats,
+       d.completion || chosen.doubts.completion, d.uncovered || chosen.doubts.uncovered};
   if (chosen.runner_up != nullptr) record_runner_up(chosen.best, *chosen.runner_up, ctx.formats, ci, result);
   return publish_layout(chosen, comp_area_m2, ci, frames, ctx, result, covered_m2, why);
 }

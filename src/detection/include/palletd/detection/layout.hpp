@@ -283,12 +283,24 @@ struct LayoutBox : Box2d {
   BoxEvidence evidence;
 };
 
+/// Why a layout search flagged its answer (LayoutResult::ambiguous); several may hold.
+struct LayoutDoubts {
+  bool tied_layouts = false;  ///< near-equal layouts of a component the seams did not separate (runner_up)
+  /// A box, or two side by side, could as well be boxes of another recipe format on the same
+  /// footprint (one box where two stand, or two where one stands) and the seams did not decide.
+  bool undecided_formats = false;
+  bool completion =
+      false;               ///< boxes completed where the depth ends could stand otherwise, or none fits there
+  bool uncovered = false;  ///< a piece of the layer more than a gap wide that no box covers
+};
+
 /// Result of the layout search for all components of a layer.
 struct LayoutResult {
   DetectionStatus status = DetectionStatus::kNoLayout;
   std::string reason;                ///< a sentence when status != ok
   std::vector<LayoutBox> boxes;
   bool ambiguous = false;            ///< another layout scores (nearly) the same
+  LayoutDoubts doubts;               ///< why `ambiguous` is set
   bool budget_exhausted = false;     ///< time budget or node cap reached: best so far returned
   double coverage = 0.0;             ///< covered share of the layer area
   double score = 0.0;                ///< sum over components of the search score [m^2]
