@@ -102,6 +102,29 @@ TEST_CASE("footprint moves: a box split into two of the recipe, two merged into 
   CHECK(footprint_moves(one, {{0.4, 0.3, "A"}}, 0.01).empty());
 }
 
+TEST_CASE("footprint moves: two boxes a gap apart may be one carton built over its format") {
+  // Two 300 x 200 turned (200 along x) standing 15 mm apart: one 400 x 300 carton 3.75 % over
+  // its format would fill them and the gap. The move spans both; 30 mm apart is no carton.
+  const std::vector<BoxFormat> formats{{0.4, 0.3, "A"}, {0.3, 0.2, "B"}};
+  auto pair = [](double gap_m) {
+    return std::vector<FrameBox>{{{0.0, 0.0, 0.2, 0.3}, 1, false},
+                                 {{0.2 + gap_m, 0.0, 0.4 + gap_m, 0.3}, 1, false}};
+  };
+  auto merges = [&](const std::vector<FrameBox>& boxes) {
+    std::vector<FootprintMove> out;
+    for (auto& m : footprint_moves(boxes, formats, 0.01))
+      if (m.remove.size() == 2) out.push_back(m);
+    return out;
+  };
+  const auto near = merges(pair(0.015));
+  REQUIRE(near.size() == 1);
+  REQUIRE(near[0].add.size() == 1);
+  CHECK(near[0].add[0].format == 0);
+  CHECK(near[0].add[0].rect.x0 == Approx(0.0));
+  CHECK(near[0].add[0].rect.x1 == Approx(0.415));
+  CHECK(merges(pair(0.035)).empty());
+}
+
 TEST_CASE("mixed formats: a seam decides for two boxes, the tape for one, a box without either is in doubt") {
   const KnownLayout l = mixed_rows();
   const auto outline = union_outline(l);

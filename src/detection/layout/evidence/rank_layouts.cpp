@@ -244,8 +244,12 @@ Ranking settle_then_rank(std::vector<Candidate>& cands, const std::vector<std::s
     cands[near[i]] = std::move(settled[i]);
     if (!dup) kept.push_back(near[i]);
   }
-  if (moved) ranking = rank_by_seams(cands, kept, frames, judge, params);  // else as ranked before
-  ranking.ambiguous = ranking.ambiguous || tied[ranking.order.front()];
+  if (!moved) return ranking;  // as ranked before: in doubt
+  ranking = rank_by_seams(cands, kept, frames, judge, params);
+  // Only layouts that all settle into one are no tie: where several stay different, the seams
+  // that ranked them apart before could not, and a ranking of the settled ones again rests on
+  // splits placed where a slack layer's real seams happen to lie.
+  ranking.ambiguous = kept.size() > 1 || tied[ranking.order.front()];
   return ranking;
 }
 

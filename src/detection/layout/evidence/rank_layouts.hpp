@@ -83,8 +83,8 @@ bool settle_footprint_moves(Candidate& best, const std::vector<Candidate>& cands
 /// them, each with its own footprint moves settled first (each calibrated against the others as
 /// they came, and written back into `cands`): those that settled into the layout of an earlier
 /// one (the same frame, boxes within `same_tol_m`) are one, and those still different are ranked
-/// again (mixes of an absent larger format whose boxes split into the cartons they cover may be
-/// one layout then). Ambiguous also where the chosen candidate's moves stayed undecided.
+/// again for the best guess. No tie only where all settled into one layout (mixes of an absent
+/// larger format whose boxes split into the cartons they cover) and its moves were decided.
 Ranking settle_then_rank(std::vector<Candidate>& cands, const std::vector<std::size_t>& near, Ranking ranking,
                          ComponentFrames& frames, const std::vector<BoxFormat>& formats,
                          const SeamJudge& judge, const LayoutParams& params, double same_tol_m);

@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "evidence/seam_likelihood.hpp"
 
@@ -147,18 +149,34 @@ std::vector<FootprintMove> footprint_moves(const std::vector<FrameBox>& boxes, c
       moves.push_back({idx, std::move(t)});
     }
   };
+  // One box over a pair that stands a gap apart (up to kMaxCartonGap_m): a carton built over its
+  // format fills both and the gap; the box spans the pair's rectangle.
+  auto add_over_gap = [&](std::vector<std::size_t> idx, const Rect& r, double gap_m, bool along_x) {
+    const double w = r.x1 - r.x0, h = r.y1 - r.y0;
+    for (const Shape& s : shapes) {
+      const double along = along_x ? s.dx : s.dy, across = along_x ? s.dy : s.dx;
+      const double span = along_x ? w : h, width = along_x ? h : w;
+      if (std::abs(across - width) < tol_m && along >= span - gap_m - tol_m && along <= span + tol_m)
+        moves.push_back({idx, {{r, s.format, s.long_along_x}}});
+    }
+  };
   for (std::size_t i = 0; i < boxes.size(); ++i) add({i}, boxes[i].rect);
-  // Pairs sharing a whole side: their union is a rectangle.
+  // Pairs sharing a whole side (their union is a rectangle), or standing a gap apart.
   for (std::size_t i = 0; i < boxes.size(); ++i) {
     const Rect& a = boxes[i].rect;
     for (std::size_t j = 0; j < boxes.size(); ++j) {
       if (j == i) continue;
       const Rect& b = boxes[j].rect;
-      if (std::abs(a.x1 - b.x0) < tol_m && std::abs(a.y0 - b.y0) < tol_m && std::abs(a.y1 - b.y1) < tol_m) {
-        add({i, j}, {a.x0, a.y0, b.x1, a.y1});
+      const double gap_x = b.x0 - a.x1, gap_y = b.y0 - a.y1;
+      if (std::abs(a.y0 - b.y0) < tol_m && std::abs(a.y1 - b.y1) < tol_m) {
+        if (std::abs(gap_x) < tol_m) add({i, j}, {a.x0, a.y0, b.x1, a.y1});
+        if (gap_x >= tol_m && gap_x <= kMaxCartonGap_m + tol_m)
+          add_over_gap({i, j}, {a.x0, a.y0, b.x1, a.y1}, gap_x, true);
       }
-      if (std::abs(a.y1 - b.y0) < tol_m && std::abs(a.x0 - b.x0) < tol_m && std::abs(a.x1 - b.x1) < tol_m) {
-        add({i, j}, {a.x0, a.y0, a.x1, b.y1});
+      if (std::abs(a.x0 - b.x0) < tol_m && std::abs(a.x1 - b.x1) < tol_m) {
+        if (std::abs(gap_y) < tol_m) add({i, j}, {a.x0, a.y0, a.x1, b.y1});
+        if (gap_y >= tol_m && gap_y <= kMaxCartonGap_m + tol_m)
+          add_over_gap({i, j}, {a.x0, a.y0, a.x1, b.y1}, gap_y, false);
       }
     }
   }
@@ -221,6 +239,16 @@ RetileResult retile_by_seams(std::vector<FrameBox>* boxes, const std::vector<Box
         best = k;
       }
       tied = tied || (k < outline_equal && std::abs(ev) < decisive_nats);
+      if (getenv("DBG_RANK") && k < outline_equal) {
+        fprintf(stderr, "  MOVE %zu ev=%.2f remove", k, ev);
+        for (std::size_t i : moves[k].remove)
+          fprintf(stderr, " [%d %.3f %.3f %.3f %.3f]", (*boxes)[i].format, (*boxes)[i].rect.x0,
+                  (*boxes)[i].rect.y0, (*boxes)[i].rect.x1, (*boxes)[i].rect.y1);
+        fprintf(stderr, " add");
+        for (const auto& b : moves[k].add)
+          fprintf(stderr, " [%d %.3f %.3f %.3f %.3f]", b.format, b.rect.x0, b.rect.y0, b.rect.x1, b.rect.y1);
+        fprintf(stderr, "\n");
+      }
     }
     if (best_ev < decisive_nats) {
       res.tied = tied;

@@ -109,8 +109,8 @@ class BestFirstSearch {
   void drop_last_node();
   std::size_t make_child(int k, int pi);
   /// Greedy dive from node k: the first fitting placement of each cell (of `format` only, or
-  /// of any format for -1).
-  void dive(int k, int format);
+  /// of any format for -1; of shape `shape` only, or of any shape for -1).
+  void dive(int k, int format, int shape = -1);
   [[nodiscard]] double score_of(int k) const;
   [[nodiscard]] double floor_score() const;
   void fill_solution(ComponentSolution* sol);

@@ -40,6 +40,12 @@ ComponentSolution BestFirstSearch::run() {
   if (formats_.size() > 1) {
     for (int f = 0; f < static_cast<int>(formats_.size()); ++f) dive(0, f);
   }
+  // And one per shape (a format and its turn): a brick layer stands all one way, rows offset by
+  // half a carton, where a dive free to turn each carton gets stuck at the far edge.
+  if (shapes_.size() > 1) {
+    for (int s = 0; s < static_cast<int>(shapes_.size()); ++s)
+      dive(0, shapes_[static_cast<std::size_t>(s)].format, s);
+  }
   search_best_first(&sol);
   fill_solution(&sol);
   return sol;
@@ -194,11 +200,11 @@ std::size_t BestFirstSearch::make_child(int k, int pi) {
   return idx;
 }
 
-// Incumbent: a complete layout from greedy dives (most promising fitting box first, of any format
-// or of one format only). It only tightens the pruning (nothing below incumbent - margin can be
-// within the margin of the best), so the bound stays admissible; when the budget runs out, it is
-// a complete answer.
-void BestFirstSearch::dive(int k, int format) {
+// Incumbent: a complete layout from greedy dives (most promising fitting box first, of any format,
+// of one format only or of one shape only). It only tightens the pruning (nothing below incumbent - margin
+// can be within the margin of the best), so the bound stays admissible; when the budget runs out, it is a
+// complete answer.
+void BestFirstSearch::dive(int k, int format, int shape) {
   while (!nodes_[static_cast<std::size_t>(k)].complete) {
     if (nodes_.size() >= max_nodes_) return;
     const int c = nodes_[static_cast<std::size_t>(k)].cursor;
@@ -207,6 +213,7 @@ void BestFirstSearch::dive(int k, int format) {
     for (int pi = 0; pi < static_cast<int>(list.size()); ++pi) {
       const Placement& p = list[static_cast<std::size_t>(pi)];
       if (format >= 0 && shapes_[static_cast<std::size_t>(p.shape)].format != format) continue;
+      if (shape >= 0 && p.shape != shape) continue;
       if (fits(occ(static_cast<std::size_t>(k)), c, p)) {
         pick = pi;
         break;
