@@ -295,13 +295,21 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   // sheet with a torn corner or a curled edge, or sagging into a chimney) are named nothing but
   // stay in doubt: it may still be a sheet the gripper would take for cartons. Where it cannot
   // show seams, a rectangle with holes stays in doubt too (a sheet with dropouts, or cartons around
-  // a chimney, look the same), any other shape is cartons.
+  // a chimney, look the same), and so does an outline cut where the depth ends; any other shape
+  // is cartons.
   const bool one_piece = layer.polygons.size() == 1;
   const double rect_m2 =
       one_piece ? static_cast<double>(min_area_rect(layer.polygons.front().outer).size.area()) * 1e-6 : 0.0;
   const bool rectangle = one_piece && rect_m2 > 0.0 &&
                          std::abs(signed_area(layer.polygons.front().outer)) >= kRectangleFill * rect_m2;
   if (!rectangle || (camera_shows_seams && has_carton_sized_hole(layer.polygons.front()))) {
+    // An outline cut where the depth ends shows no shape: the sheet may go on unseen there.
+    if (!camera_shows_seams && layer.diagnostics.outline_along_invalid) {
+      return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
+                                                    " of their shared sides) and " + seam_blindness(layout) +
+                                                    ", on a layer whose outline runs where the depth ends: a "
+                                                    "slip sheet cannot be ruled out"};
+    }
     if (!camera_shows_seams) return std::nullopt;
     return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
                                                   " of their shared sides) where this camera shows seams, on "

@@ -342,6 +342,16 @@ TEST_CASE("detect() finds the floor below a deck whose level took in a strip of 
 // (420 x 320 may fill it as well), and the level's own noise, 10-30 mm below its plane, was taken
 // for a floor 30 mm down: "an empty pallet's deck", no boxes. The floor is looked for outside the
 // level's outline and in its holes only: none here, so the flagged layout stands.
+// M5 0022 (`palletctl simulate --out M5 -n 72 --pattern all --scene all --profile all --gap-max 20
+// --oversize-max 0.04 --corner-radius 3:8 --seed 90985`): a sheet on a block of 600 x 400 (xtion,
+// no seams shown), its far part beyond the camera's range. The outline cut where the depth ends
+// is no rectangle, and a seamless layer of any other shape was taken for cartons, unflagged.
+TEST_CASE("a seamless layer cut where the depth ends is not taken for cartons") {
+  const BundledRun run = run_bundled("flags/slip_sheet_cut_by_range_xtion");
+  CHECK_FALSE(run.eval.unflagged_wrong);
+  CHECK_THAT(run.detection.ambiguity_reason, Catch::Contains("a slip sheet cannot be ruled out"));
+}
+
 TEST_CASE("detect() does not take a noisy level's own points for the floor of an empty pallet") {
   const BundledRun run = run_bundled("flags/block_600x400_no_floor_in_view_xtion");
   CHECK(run.eval.status == "ok");
