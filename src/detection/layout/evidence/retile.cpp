@@ -2,8 +2,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "evidence/seam_likelihood.hpp"
 
@@ -239,16 +237,6 @@ RetileResult retile_by_seams(std::vector<FrameBox>* boxes, const std::vector<Box
         best = k;
       }
       tied = tied || (k < outline_equal && std::abs(ev) < decisive_nats);
-      if (getenv("DBG_RANK") && k < outline_equal) {
-        fprintf(stderr, "  MOVE %zu ev=%.2f remove", k, ev);
-        for (std::size_t i : moves[k].remove)
-          fprintf(stderr, " [%d %.3f %.3f %.3f %.3f]", (*boxes)[i].format, (*boxes)[i].rect.x0,
-                  (*boxes)[i].rect.y0, (*boxes)[i].rect.x1, (*boxes)[i].rect.y1);
-        fprintf(stderr, " add");
-        for (const auto& b : moves[k].add)
-          fprintf(stderr, " [%d %.3f %.3f %.3f %.3f]", b.format, b.rect.x0, b.rect.y0, b.rect.x1, b.rect.y1);
-        fprintf(stderr, "\n");
-      }
     }
     if (best_ev < decisive_nats) {
       res.tied = tied;
