@@ -96,6 +96,11 @@ void AravisCamera::do_close() {
 }
 
 Status AravisCamera::do_software_trigger() {
+  // A frame already waiting was exposed before this trigger (a late answer to an earlier one, or
+  // sent before the camera stopped): the trigger's frame must show the pallet as it is now.
+  while (ArvBuffer* stale = arv_stream_try_pop_buffer(impl_->stream.get())) {
+    arv_stream_push_buffer(impl_->stream.get(), stale);
+  }
   GError* error = nullptr;
   arv_camera_software_trigger(impl_->camera.get(), &error);
   if (error != nullptr) {

@@ -232,6 +232,27 @@ TEST_CASE("aravis Coord3D_C16 frames arrive byte-identical to replay, one per so
   cam->close();
 }
 
+TEST_CASE("aravis: a frame left waiting from an earlier trigger is not the next trigger's frame") {
+  // The PLC triggers, the grab gives up, the frame comes late and waits in the stream; the next
+  // trigger's frame must show the pallet as it is then, not the waiting one.
+  SKIP_WITHOUT_NETNS();
+  Fixture fx(3);
+  auto fake = start_fake(fx.xml, fx.source, fx.replayed[0]);
+  auto cam = make_camera(aravis_config("Coord3D_C16", true));
+  REQUIRE(cam->open().ok());
+  REQUIRE(cam->start().ok());
+  REQUIRE(cam->software_trigger().ok());  // frame 0: never grabbed
+  std::this_thread::sleep_for(milliseconds(500));
+  REQUIRE(cam->software_trigger().ok());  // frame 1
+  auto frame = cam->grab(milliseconds(3000));
+  INFO(frame.error());
+  REQUIRE(frame.ok());
+  CHECK(frame->depth == fx.replayed[1].depth);
+  CHECK_FALSE(frame->depth == fx.replayed[0].depth);
+  CHECK_FALSE(cam->grab(milliseconds(300)).ok());  // nothing else waits
+  cam->close();
+}
+
 TEST_CASE("aravis Coord3D_ABC32f gives Z quantised to 0.1 mm, the same depth as replay") {
   SKIP_WITHOUT_NETNS();
   Fixture fx(2);
