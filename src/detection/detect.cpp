@@ -73,16 +73,17 @@ std::string too_many_boxes(double layer_area_m2, double smallest_box_m2) {
 /// (LayoutDoubts), joined, and their categories.
 std::pair<std::string, std::vector<AmbiguityKind>> ambiguity_reason(const LayoutResult& layout) {
   const LayoutDoubts& d = layout.doubts;
+  const std::string arrangement = "another arrangement of " + std::to_string(layout.runner_up.size()) +
+                                  " boxes explains the outline and the seams nearly as well";
+  const std::string budget = "the search ended at its budget before it could rule out other arrangements";
+  const std::string unexplained = "part of the layer is not explained by the boxes found";
   std::string why;
   std::vector<AmbiguityKind> kinds;
   auto add = [&](const std::string& sentence, AmbiguityKind kind) {
     why += (why.empty() ? "" : "; ") + sentence;
     if (std::find(kinds.begin(), kinds.end(), kind) == kinds.end()) kinds.push_back(kind);
   };
-  if (d.tied_layouts && !layout.runner_up.empty())
-    add("another arrangement of " + std::to_string(layout.runner_up.size()) +
-            " boxes explains the outline and the seams nearly as well",
-        AmbiguityKind::kTiedLayouts);
+  if (d.tied_layouts && !layout.runner_up.empty()) add(arrangement, AmbiguityKind::kTiedLayouts);
   if (d.undecided_formats)
     add("a box could as well be two boxes of another recipe format side by side, or two boxes one (the same "
         "footprint): no seam decides where they would differ, and a gap between cartons can be pressed shut",
@@ -90,20 +91,13 @@ std::pair<std::string, std::vector<AmbiguityKind>> ambiguity_reason(const Layout
   if (d.completion)
     add("boxes completed where the depth ends could stand otherwise, or none fits part of the layer there",
         AmbiguityKind::kTiedLayouts);
-  if (d.uncovered)
-    add("part of the layer is not explained by the boxes found", AmbiguityKind::kUnexplainedArea);
-  if (!why.empty() && layout.budget_exhausted)
-    add("the search ended at its budget before it could rule out other arrangements",
-        AmbiguityKind::kSearchBudget);
+  if (d.uncovered) add(unexplained, AmbiguityKind::kUnexplainedArea);
+  if (!why.empty() && layout.budget_exhausted) add(budget, AmbiguityKind::kSearchBudget);
   if (!why.empty()) return {why, kinds};
-  if (!layout.runner_up.empty())
-    return {"another arrangement of " + std::to_string(layout.runner_up.size()) +
-                " boxes explains the outline and the seams nearly as well",
-            {AmbiguityKind::kTiedLayouts}};
-  if (layout.budget_exhausted)
-    return {"the search ended at its budget before it could rule out other arrangements",
-            {AmbiguityKind::kSearchBudget}};
-  return {"part of the layer is not explained by the boxes found", {AmbiguityKind::kUnexplainedArea}};
+  // A flag without a recorded doubt: what the result shows.
+  if (!layout.runner_up.empty()) return {arrangement, {AmbiguityKind::kTiedLayouts}};
+  if (layout.budget_exhausted) return {budget, {AmbiguityKind::kSearchBudget}};
+  return {unexplained, {AmbiguityKind::kUnexplainedArea}};
 }
 
 /// The frame's share of each box's score terms, then the calibrated confidences.
