@@ -8,7 +8,10 @@
 #include <vector>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/create_offset_polygons_from_polygon_with_holes_2.h>
+#include <CGAL/Polygon_with_holes_2.h>
+#include <CGAL/arrange_offset_polygons_2.h>
+#include <CGAL/create_offset_polygons_2.h>
+#include <CGAL/create_straight_skeleton_2.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -39,17 +42,49 @@ Ring2d from_cgal(const CgalPolygon& polygon) {
   return ring;
 }
 
-/// The polygon moved in by inset_m (an outline that is not simple is left as it is); a piece
-/// narrower than twice the inset disappears.
-std::vector<PolygonWithHoles> inset(const PolygonWithHoles& polygon, double inset_m) {
-  CgalPolygonWithHoles in(to_cgal(polygon.outer, true));
-  if (!in.outer_boundary().is_simple()) return {polygon};
-  for (const Ring2d& hole : polygon.holes) {
+/// Whether an edge of `a` meets an edge of `b`.
+bool rings_meet(const CgalPolygon& a, const CgalPolygon& b) {
+  for (auto ea = a.edges_begin(); ea != a.edges_end(); ++ea)
+    for (auto eb = b.edges_begin(); eb != b.edges_end(); ++eb)
+      if (CGAL::do_intersect(*ea, *eb)) return true;
+  return false;
+}
+
+/// The holes the skeleton can take: simple, strictly inside the outer ring, meeting neither it
+/// nor a larger hole kept before them (the layer's holes come from separate contours and may
+/// touch). The skeleton of rings that meet is not built.
+std::vector<CgalPolygon> valid_holes(const CgalPolygon& outer, const std::vector<Ring2d>& holes) {
+  std::vector<CgalPolygon> candidates, kept;
+  for (const Ring2d& hole : holes) {
     CgalPolygon h = to_cgal(hole, false);
-    if (h.size() >= 3 && h.is_simple()) in.add_hole(std::move(h));
+    if (h.size() >= 3 && h.is_simple()) candidates.push_back(std::move(h));
   }
+  std::sort(candidates.begin(), candidates.end(), [](const CgalPolygon& a, const CgalPolygon& b) {
+    return CGAL::abs(a.area()) > CGAL::abs(b.area());
+  });
+  for (CgalPolygon& h : candidates) {
+    if (outer.bounded_side(h.vertex(0)) != CGAL::ON_BOUNDED_SIDE || rings_meet(h, outer)) continue;
+    const bool meets_kept = std::any_of(kept.begin(), kept.end(), [&](const CgalPolygon& k) {
+      return rings_meet(h, k) || k.bounded_side(h.vertex(0)) != CGAL::ON_UNBOUNDED_SIDE ||
+             h.bounded_side(k.vertex(0)) != CGAL::ON_UNBOUNDED_SIDE;
+    });
+    if (!meets_kept) kept.push_back(std::move(h));
+  }
+  return kept;
+}
+
+/// The polygon moved in by inset_m; a piece narrower than twice the inset disappears. An outline
+/// that is not simple, or whose skeleton CGAL cannot build, is left as it is.
+std::vector<PolygonWithHoles> inset(const PolygonWithHoles& polygon, double inset_m) {
+  const CgalPolygon outer = to_cgal(polygon.outer, true);
+  if (outer.size() < 3 || !outer.is_simple()) return {polygon};
+  const std::vector<CgalPolygon> holes = valid_holes(outer, polygon.holes);
+  const auto skeleton = CGAL::create_interior_straight_skeleton_2(
+      outer.vertices_begin(), outer.vertices_end(), holes.begin(), holes.end(), Kernel());
+  if (!skeleton) return {polygon};
+  const auto offsets = CGAL::create_offset_polygons_2<CgalPolygon>(inset_m, *skeleton, Kernel());
   std::vector<PolygonWithHoles> out;
-  for (const auto& piece : CGAL::create_interior_skeleton_and_offset_polygons_with_holes_2(inset_m, in)) {
+  for (const auto& piece : CGAL::arrange_offset_polygons_2<CgalPolygonWithHoles>(offsets)) {
     PolygonWithHoles p{from_cgal(piece->outer_boundary()), {}};
     for (auto h = piece->holes_begin(); h != piece->holes_end(); ++h) p.holes.push_back(from_cgal(*h));
     out.push_back(std::move(p));

@@ -448,3 +448,19 @@ TEST_CASE("heavily noisy seams with a label on a possible split line resolve mix
   REQUIRE(r.status == DetectionStatus::kOk);
   CHECK((r.ambiguous || match_error(truth, r.boxes) >= 0.0));
 }
+
+// Frame 116 of `palletctl simulate --out P1 -n 120 --pattern all --profile all --scene all
+// --oversize-max 0.04 --corner-radius 3:8 --gap-max 20 --fill 0.3:1 --removal all --extra-format
+// 500x350 --seed 90991`: a chimney of 315 x 232 on d435 whose layer outline has the chimney and
+// eleven small holes where the depth drops out, some touching. CGAL builds no skeleton for rings
+// that meet; the fattened tops' inset took its offset from the skeleton it did not build, and the
+// process died. Holes that meet the outer ring or a larger hole are left out of the skeleton.
+TEST_CASE("an outline whose holes touch is moved in all the same") {
+  const BundledRun run = run_bundled("robustness/chimney_315x232_touching_holes_d435");
+  REQUIRE(run.eval.status == "ok");
+  CHECK(run.detection.layer.diagnostics.edges_moved_in_m > 0.005);
+  std::size_t holes = 0;
+  for (const PolygonWithHoles& p : run.detection.layer.polygons) holes += p.holes.size();
+  CHECK(holes >= 1);  // the chimney
+  CHECK_FALSE(run.eval.unflagged_wrong);
+}
