@@ -178,3 +178,41 @@ TEST_CASE("noise per depth: the band widens where the measured noise does") {
   CHECK(band.max_m() <= layer::kMaxBand);
   CHECK(std::abs(top.plane.d - f.top_plane_camera.d) < 0.003);
 }
+
+TEST_CASE("noise per depth: a quantised sensor's band spans one of its depth steps") {
+  // A Kinect-like camera 2.66 m above a level layer: its depth comes from a disparity measured
+  // in sub-pixel steps, in levels about 20 mm apart at that range, and each pixel reports the
+  // level nearest to its noisy depth. A bin's spread depends on where the plane falls between
+  // two levels; the layer's pixels lie on both.
+  SynthScene s = grid_layer(3, 3, 0.0, 1.0, true);
+  SynthCamera cam;
+  cam.tilt_deg = 0.0;
+  cam.distance_m = 2.66;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  SynthNoise quiet;
+  quiet.sigma_m = 0.0;
+  SynthFrame f = render_synthetic(s, cam, quiet);
+  const Eigen::Vector3f n = f.top_plane_camera.normal.cast<float>();
+  const auto d = static_cast<float>(f.top_plane_camera.d);
+  std::vector<std::size_t> on_top;
+  std::mt19937 rng(11);
+  std::normal_distribution<float> g(0.0F, 0.008F);
+  constexpr float kStep_m = 0.020F;
+  for (std::size_t i = 0; i < f.cloud.points.size(); ++i) {
+    Eigen::Vector3f& p = f.cloud.points[i];
+    if (!p.allFinite()) continue;
+    if (std::abs(n.dot(p) + d) < 0.001F) on_top.push_back(i);
+    const float z = p.z() + g(rng);
+    p *= std::round(z / kStep_m) * kStep_m / p.z();  // along the ray, to the nearest level
+  }
+  REQUIRE(on_top.size() > 10000);
+  const layer::TopPlane top = layer::find_top_plane(f.cloud, f.frame.intrinsics, PlaneParams{});
+  REQUIRE(top.status == DetectionStatus::kOk);
+  const double z_m = top.centroid.z();
+  CHECK(top.noise.step_at(z_m) == Approx(kStep_m).epsilon(0.2));
+  const layer::BandTable band(top.noise, 0.0);
+  const layer::LayerMask mask = layer::layer_mask(f.cloud, top.plane, band, PlaneParams{});
+  std::size_t kept = 0;
+  for (const std::size_t i : on_top) kept += mask.mask.data[i] != 0 ? 1 : 0;
+  CHECK(static_cast<double>(kept) / static_cast<double>(on_top.size()) > 0.98);
+}

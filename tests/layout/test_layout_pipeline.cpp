@@ -464,3 +464,17 @@ TEST_CASE("an outline whose holes touch is moved in all the same") {
   CHECK(holes >= 1);  // the chimney
   CHECK_FALSE(run.eval.unflagged_wrong);
 }
+
+// Frame 89 of `palletctl simulate --out Q3 -n 240 --pattern all --profile d435 xtion o3d303-small
+// --oversize-max 0.05 --corner-radius 2:10 --gap-max 20 --fill 0.2:1 --removal holes clusters
+// random --seed 90996`: five 315 x 232 of a pinwheel on xtion 1.75 m away, whose depths come in
+// levels about 9 mm apart. The noise per depth bin was 1.3-12 mm by where the plane fell between
+// two levels, and one carton whose pixels lay mostly on the next level was left out of the layer:
+// four boxes, unflagged. The band spans at least one depth step now.
+TEST_CASE("a carton measured on the next depth level of a quantised camera is on the layer") {
+  const BundledRun run = run_bundled("quantised/pinwheel_315x232_two_depth_levels_xtion");
+  REQUIRE(run.eval.status == "ok");
+  CHECK(run.detection.boxes.size() == 5);
+  CHECK(run.eval.exact);
+  CHECK_FALSE(run.eval.unflagged_wrong);
+}

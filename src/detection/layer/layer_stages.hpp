@@ -25,6 +25,8 @@ namespace palletd::layer {
 constexpr double kMinLayerStep = 0.10;
 /// Widest passthrough / refit band: half the step to the layer below [m].
 constexpr double kMaxBand = 0.5 * kMinLayerStep;
+/// What the passthrough band adds to the depth noise: boxes whose heights differ as built [m].
+constexpr double kBandMargin_m = 0.004;
 
 // ---- stage 1: top plane ----------------------------------------------------------------------
 
@@ -33,9 +35,19 @@ struct DepthNoise {
   std::vector<double> bin_z_m;      ///< bin centres (median depth), ascending [m]; empty: one sigma
   std::vector<double> bin_sigma_m;  ///< robust sigma per bin [m]
   double sigma_all_m = 0.0;     ///< robust sigma of all points [m]
+  /// The step between the depths the sensor can report, over depth squared [1/m]: structured
+  /// light and stereo measure a disparity in sub-pixel steps, so their depths come in levels
+  /// z^2 / (f b) per step apart (8-20 mm at 1.7-2.7 m on a Kinect-like camera); a time-of-flight
+  /// camera's depth unit is a fraction of its noise. The median gap between the distinct depths
+  /// measured near the plane, over the depth squared.
+  double step_per_z2 = 0.0;
   /// Sigma at depth z, linear between bin centres, constant beyond [m].
   [[nodiscard]] double sigma_at(double z_m) const;
-  /// Passthrough band at depth z (default_passthrough_tolerance of sigma_at) [m].
+  /// The step between reported depths at depth z [m].
+  [[nodiscard]] double step_at(double z_m) const { return step_per_z2 * z_m * z_m; }
+  /// Passthrough band at depth z [m]: default_passthrough_tolerance of sigma_at, and at least one
+  /// depth step beyond the same margin (a plane between two levels is measured on both; a bin's
+  /// sigma depends on where the plane falls between them and may be far less than a step).
   [[nodiscard]] double band_at(double z_m) const;
 };
 

@@ -96,6 +96,27 @@ PlaneFit refit(const OrganizedCloud& cloud, const Plane& plane, const DepthNoise
   return fit;
 }
 
+/// DepthNoise::step_per_z2 from (depth, |residual|) samples: the median gap between consecutive
+/// distinct depths (10 um apart at least) over the depth squared; 0 with fewer than three.
+double depth_step_per_z2(const std::vector<std::pair<float, float>>& zr) {
+  std::vector<float> z(zr.size());
+  for (std::size_t i = 0; i < zr.size(); ++i) z[i] = zr[i].first;
+  std::sort(z.begin(), z.end());
+  // Depths within 10 um are one level (a level's depth computed twice may differ in its last bit).
+  z.erase(std::unique(z.begin(), z.end(), [](float kept, float next) { return next - kept < 1e-5F; }),
+          z.end());
+  if (z.size() < 3) return 0.0;
+  std::vector<double> per_z2;
+  per_z2.reserve(z.size() - 1);
+  for (std::size_t i = 1; i < z.size(); ++i) {
+    const double mid = 0.5 * static_cast<double>(z[i] + z[i - 1]);
+    per_z2.push_back(static_cast<double>(z[i] - z[i - 1]) / (mid * mid));
+  }
+  auto middle = per_z2.begin() + static_cast<std::ptrdiff_t>(per_z2.size() / 2);
+  std::nth_element(per_z2.begin(), middle, per_z2.end());
+  return *middle;
+}
+
 /// Robust sigma (1.4826 x median |residual|) of the points near the plane (at most ~10^4
 /// samples), overall and in up to kDepthBins depth bins of equal count: noise grows with range
 /// (ToF linearly, structured light with its square), so the band follows the depth. Points
@@ -128,6 +149,7 @@ DepthNoise depth_noise(const OrganizedCloud& cloud, const Plane& plane, const Pl
   std::vector<float> r(zr.size());
   for (std::size_t i = 0; i < zr.size(); ++i) r[i] = zr[i].second;
   out.sigma_all_m = mad(r);
+  out.step_per_z2 = depth_step_per_z2(zr);
   const int bins = static_cast<int>(std::min<std::size_t>(kDepthBins, zr.size() / kMinPerBin));
   if (bins < 2) return out;
   std::sort(zr.begin(), zr.end());
@@ -363,7 +385,10 @@ double DepthNoise::sigma_at(double z_m) const {
   return bin_sigma_m[k - 1] + t * (bin_sigma_m[k] - bin_sigma_m[k - 1]);
 }
 
-double DepthNoise::band_at(double z_m) const { return default_passthrough_tolerance(sigma_at(z_m)); }
+double DepthNoise::band_at(double z_m) const {
+  return std::max(default_passthrough_tolerance(sigma_at(z_m)),
+                  std::min(step_at(z_m) + kBandMargin_m, kMaxBand));
+}
 
 BandTable::BandTable(const DepthNoise& noise, double fixed_m) {
   if (fixed_m > 0.0 || noise.bin_z_m.size() < 2) {
@@ -461,7 +486,7 @@ Eigen::Isometry3d layer_frame(const Plane& plane, const Eigen::Vector3d& origin_
 double default_passthrough_tolerance(double sigma_m) {
   // Noise band plus a few millimetres for boxes whose heights differ as built; never wider than
   // half the smallest step to the layer below.
-  return std::clamp(3.0 * sigma_m + 0.004, 0.006, kMaxBand);
+  return std::clamp(3.0 * sigma_m + kBandMargin_m, 0.006, kMaxBand);
 }
 
 }  // namespace palletd::layer
