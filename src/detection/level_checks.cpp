@@ -94,11 +94,13 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
     if (b.evidence.split_seam >= 0.0 && b.evidence.split_seam < kSplitSeam) ++undecided;
   }
   if (undecided == 0) return std::nullopt;
-  return LevelVerdict{DetectionStatus::kOk, std::to_string(undecided) +
-                                                " box(es) could as well be boxes of another recipe format (one box "
-                                                "where two stand side by side, or two where one stands): no seam "
-                                                "is seen where they would differ and " +
-                                                seam_blindness(layout)};
+  return LevelVerdict{DetectionStatus::kOk,
+                      std::to_string(undecided) +
+                          " box(es) could as well be boxes of another recipe format (one box "
+                          "where two or four stand side by side, or two or four where one "
+                          "stands): no seam "
+                          "is seen where they would differ and " +
+                          seam_blindness(layout)};
 }
 
 std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout) {

@@ -46,8 +46,8 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
 std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,
                                        const std::vector<BoxFormat>& formats);
 
-/// A box that two boxes of another recipe format could replace, or a pair one box could
-/// (LayoutBox evidence split_seam), with no seam seen across it, on a camera that does not show
+/// A box that two boxes of another recipe format could replace, or a pair or a block of four one
+/// box could (LayoutBox evidence split_seam), with no seam seen across it, on a camera that does not show
 /// narrow seams (a coarse pitch, or no mixed pixels at edges): the outline is the same either
 /// way and nothing in the frame decides, so the layout is flagged (kOk with the sentence).
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);

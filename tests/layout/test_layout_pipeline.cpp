@@ -478,3 +478,20 @@ TEST_CASE("a carton measured on the next depth level of a quantised camera is on
   CHECK(run.eval.exact);
   CHECK_FALSE(run.eval.unflagged_wrong);
 }
+
+// Frame 32 of `palletctl simulate --out O3 -n 160 --pattern block interlock brick --profile all
+// --scene isolated cell stepped --cell --fill 0.05:0.5 --removal all --extra-format 600x400
+// 400x300 300x200 --gap-max 3 --oversize-max 0.02 --corner-radius 3:8 --seed 91000` (a cell; its
+// region of interest below): one 600 x 400 left on the layer, 176 x 132 camera at 14 mm per pixel,
+// a recipe of the Euro modules 600 x 400, 400 x 300 and 300 x 200. It came out as four 300 x 200,
+// unflagged: two of them side by side make a 400 x 300, and each such pair showed a "seam" where
+// the carton's tape runs; the line between the pairs, which no pair weighs, shows none.
+TEST_CASE("four boxes that make another format's footprint two by two are in doubt without a seam") {
+  RegionOfInterest roi;
+  roi.frame = RegionOfInterest::Frame::kBase;
+  roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.094);
+  roi.max_m = Eigen::Vector3d(0.7, 0.5, 0.944);
+  const BundledRun run =
+      run_flagged("flags/block_600x400_as_four_300x200_o3d303-small", "two or four stand side by side", roi);
+  CHECK_FALSE(run.eval.unflagged_wrong);
+}

@@ -88,6 +88,61 @@ void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const st
   }
 }
 
+/// The box of b's format, turned as b, standing at `offset_box` from b (b's frame: along its long
+/// side, across it) within the widest gap between cartons, or null.
+const LayoutBox* neighbour_at(const std::vector<LayoutBox>& boxes, const LayoutBox& b,
+                              const Eigen::Vector2d& offset_box) {
+  const Eigen::Vector2d want = b.center + Eigen::Rotation2Dd(b.yaw_rad) * offset_box;
+  for (const LayoutBox& n : boxes) {
+    if (&n == &b || n.format != b.format || n.component != b.component) continue;
+    if (std::abs(std::remainder(n.yaw_rad - b.yaw_rad, M_PI)) > 3.0 * M_PI / 180.0) continue;
+    if ((n.center - want).norm() < kMaxCartonGap_m + 0.005) return &n;
+  }
+  return nullptr;
+}
+
+/// The format whose footprint four boxes of `quarter` make two by two, or -1.
+int block_format(const std::vector<BoxFormat>& formats, const BoxFormat& quarter) {
+  for (std::size_t f = 0; f < formats.size(); ++f) {
+    if (std::abs(formats[f].long_m - 2.0 * quarter.long_m) < kSameSize_m &&
+        std::abs(formats[f].short_m - 2.0 * quarter.short_m) < kSameSize_m)
+      return static_cast<int>(f);
+  }
+  return -1;
+}
+
+/// Four boxes of one format two by two whose block is another recipe format's footprint (four
+/// 300 x 200 make a 600 x 400): the pairs along their long sides make a third format (400 x 300),
+/// which mark_format_doubt weighs, but the line between those pairs, across the block's middle,
+/// is weighed by no pair. With no seam along it the block could as well be one carton: each box
+/// keeps the weaker seam as its split_seam.
+void mark_block_doubt(const std::vector<BoxFormat>& formats, const SeamEvidence& seams,
+                      const LayoutParams& params, LayoutResult& result) {
+  constexpr double kReach_m = 0.015;  // the line's place: half the widest gap and a pose error
+  for (LayoutBox& b : result.boxes) {
+    const auto fa = static_cast<std::size_t>(b.format);
+    if (fa >= formats.size()) continue;
+    const BoxFormat& f = formats[fa];
+    const int block = block_format(formats, f);
+    if (block < 0) continue;
+    for (const double along : {-1.0, 1.0}) {
+      for (const double across : {-1.0, 1.0}) {
+        const LayoutBox* n1 = neighbour_at(result.boxes, b, {along * f.long_m, 0.0});
+        const LayoutBox* n2 = neighbour_at(result.boxes, b, {0.0, across * f.short_m});
+        const LayoutBox* n3 = neighbour_at(result.boxes, b, {along * f.long_m, across * f.short_m});
+        if (n1 == nullptr || n2 == nullptr || n3 == nullptr) continue;
+        Box2d whole = b;
+        whole.center = 0.25 * (b.center + n1->center + n2->center + n3->center);
+        whole.long_m = formats[static_cast<std::size_t>(block)].long_m;
+        whole.short_m = formats[static_cast<std::size_t>(block)].short_m;
+        whole.format = block;
+        const double seam = layout_detail::seam_across_middle(whole, &seams, params, kReach_m);
+        b.evidence.split_seam = b.evidence.split_seam < 0 ? seam : std::min(b.evidence.split_seam, seam);
+      }
+    }
+  }
+}
+
 /// No layout without a layer: its status and reason.
 LayoutResult without_layer(const LayerResult& layer) {
   LayoutResult r;
@@ -138,7 +193,10 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
     result = refine_layout(result, layer, formats, &seams, p, &around, &rim);
   }
   mark_contested(result);
-  if (formats.size() > 1) mark_format_doubt(layer.polygons, formats, seams, p, result);
+  if (formats.size() > 1) {
+    mark_format_doubt(layer.polygons, formats, seams, p, result);
+    mark_block_doubt(formats, seams, p, result);
+  }
   result.interior_seams = measure_interior_seams(result.boxes, seams, layer.polygons);
   result.pixel_pitch_m = layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
   double outline_m = 0.0;

@@ -66,6 +66,26 @@ BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component,
   return box_support(box, frame, fp, table.empty() ? nullptr : &table, params);
 }
 
+double seam_across_middle(const Box2d& box, const SeamEvidence* seams, const LayoutParams& params,
+                          double reach_m) {
+  if (seams == nullptr || seams->empty() || !(seams->strength > 0.0)) return 0.0;
+  LayoutFrame frame;
+  frame.theta_rad = box.yaw_rad;
+  frame.pivot = box.center;
+  const double m = params.seams.margin_m;
+  const double hx = box.long_m / 2, hy = box.short_m / 2;
+  const SeamTable table(*seams, frame, Rect{-hx - 2 * m, -hy - 2 * m, hx + 2 * m, hy + 2 * m});
+  if (table.empty()) return 0.0;
+  BoxView view;
+  view.table = &table;
+  view.center = frame.to_frame(box.center);
+  const double cell = table.cell();
+  double strongest = 0.0;
+  for (double x = -reach_m; x + cell <= reach_m + 1e-9; x += cell)
+    strongest = std::max(strongest, view.mean({x, -hy + m, x + cell, hy - m}));
+  return std::clamp(strongest, 0.0, 1.0);
+}
+
 double largest_uncovered_m2(const PolygonWithHoles& frame_polygon, const std::vector<FrameBox>& boxes, double gap_m) {
   const Rect b = bounds_of(frame_polygon);
   const double cell = 0.005;

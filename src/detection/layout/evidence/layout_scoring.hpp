@@ -31,6 +31,11 @@ BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component,
 BoxSupport box_support(const Box2d& box, const LayoutFrame& frame, const PolygonWithHoles& frame_polygon,
                        const SeamTable* table, const LayoutParams& params);
 
+/// The strongest seam column across the box's long axis within reach_m of its middle, 0..1: the
+/// line along which the box would be two boxes of half its length.
+double seam_across_middle(const Box2d& box, const SeamEvidence* seams, const LayoutParams& params,
+                          double reach_m);
+
 /// Largest connected piece of the component (layout frame) that no box covers, the gaps between
 /// boxes left out (pieces narrower than gap_m vanish) [m^2].
 double largest_uncovered_m2(const PolygonWithHoles& frame_polygon, const std::vector<FrameBox>& boxes, double gap_m);

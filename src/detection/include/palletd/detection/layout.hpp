@@ -261,8 +261,9 @@ struct BoxEvidence {
   /// unconfirmed (position_sigma_m stays -1).
   bool fit_rejected = false;
   bool contested = false;  ///< the runner-up layout of its component has no box of its size here
-  /// Where the recipe makes the box two boxes of another format, or it and a neighbour one box
-  /// of another format: the strongest seam line across that box or pair, 0..1; -1 = neither.
+  /// Where the recipe makes the box two boxes of another format, or it and a neighbour (or it and
+  /// three neighbours two by two) one box of another format: the strongest seam line across that
+  /// box or pair (across the block's middle), the weakest of them, 0..1; -1 = none of these.
   double split_seam = -1.0;
   /// Side lengths measured from its own sides alone (the outline or a seam seen on both opposite
   /// sides, no prior), long and short [m]; -1 where a side of the pair was not seen. The recipe
