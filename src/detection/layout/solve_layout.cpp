@@ -34,14 +34,19 @@ void mark_contested(LayoutResult& result) {
 /// Tolerance of "the same size" between a box and two boxes of another format [m].
 constexpr double kSameSize_m = 0.012;
 
-/// The format that two boxes of format `half` side by side make (along their short sides), or -1.
-int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half) {
+/// The recipe format of this size (within kSameSize_m), or -1.
+int format_of_size(const std::vector<BoxFormat>& formats, double long_m, double short_m) {
   for (std::size_t f = 0; f < formats.size(); ++f) {
-    if (std::abs(formats[f].long_m - 2.0 * half.short_m) < kSameSize_m &&
-        std::abs(formats[f].short_m - half.long_m) < kSameSize_m)
+    if (std::abs(formats[f].long_m - long_m) < kSameSize_m &&
+        std::abs(formats[f].short_m - short_m) < kSameSize_m)
       return static_cast<int>(f);
   }
   return -1;
+}
+
+/// The format that two boxes of format `half` side by side make (along their short sides), or -1.
+int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half) {
+  return format_of_size(formats, 2.0 * half.short_m, half.long_m);
 }
 
 /// Marks boxes whose place another format could take by two, or a pair that one box of another
@@ -101,16 +106,6 @@ const LayoutBox* neighbour_at(const std::vector<LayoutBox>& boxes, const LayoutB
   return nullptr;
 }
 
-/// The format whose footprint four boxes of `quarter` make two by two, or -1.
-int block_format(const std::vector<BoxFormat>& formats, const BoxFormat& quarter) {
-  for (std::size_t f = 0; f < formats.size(); ++f) {
-    if (std::abs(formats[f].long_m - 2.0 * quarter.long_m) < kSameSize_m &&
-        std::abs(formats[f].short_m - 2.0 * quarter.short_m) < kSameSize_m)
-      return static_cast<int>(f);
-  }
-  return -1;
-}
-
 /// Four boxes of one format two by two whose block is another recipe format's footprint (four
 /// 300 x 200 make a 600 x 400): the pairs along their long sides make a third format (400 x 300),
 /// which mark_format_doubt weighs, but the line between those pairs, across the block's middle,
@@ -123,11 +118,11 @@ void mark_block_doubt(const std::vector<BoxFormat>& formats, const SeamEvidence&
     const auto fa = static_cast<std::size_t>(b.format);
     if (fa >= formats.size()) continue;
     const BoxFormat& f = formats[fa];
-    const int block = block_format(formats, f);
+    const int block = format_of_size(formats, 2.0 * f.long_m, 2.0 * f.short_m);  // four two by two
     if (block < 0) continue;
     for (const double along : {-1.0, 1.0}) {
+      const LayoutBox* n1 = neighbour_at(result.boxes, b, {along * f.long_m, 0.0});
       for (const double across : {-1.0, 1.0}) {
-        const LayoutBox* n1 = neighbour_at(result.boxes, b, {along * f.long_m, 0.0});
         const LayoutBox* n2 = neighbour_at(result.boxes, b, {0.0, across * f.short_m});
         const LayoutBox* n3 = neighbour_at(result.boxes, b, {along * f.long_m, across * f.short_m});
         if (n1 == nullptr || n2 == nullptr || n3 == nullptr) continue;

@@ -51,31 +51,42 @@ BoxSupport box_support(const Box2d& box, const LayoutFrame& frame, const Polygon
   return s;
 }
 
-BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component,
-                       const SeamEvidence* seams, const LayoutParams& params) {
+namespace {
+
+/// The layout frame of the box itself (its centre, turned with it).
+LayoutFrame frame_of(const Box2d& box) {
   LayoutFrame frame;
   frame.theta_rad = box.yaw_rad;
   frame.pivot = box.center;
-  const PolygonWithHoles fp = frame.to_frame(component);
+  return frame;
+}
+
+/// The seam table over the box in its own frame, out to two margins beyond it (empty without
+/// seams).
+SeamTable table_around(const Box2d& box, const LayoutFrame& frame, const SeamEvidence* seams,
+                       const LayoutParams& params) {
+  if (seams == nullptr || seams->empty() || !(seams->strength > 0.0)) return {};
   const double m = params.seams.margin_m;
   const double hx = box.long_m / 2, hy = box.short_m / 2;
-  SeamTable table;
-  if (seams != nullptr && !seams->empty() && seams->strength > 0.0) {
-    table = SeamTable(*seams, frame, Rect{-hx - 2 * m, -hy - 2 * m, hx + 2 * m, hy + 2 * m});
-  }
-  return box_support(box, frame, fp, table.empty() ? nullptr : &table, params);
+  return SeamTable(*seams, frame, Rect{-hx - 2 * m, -hy - 2 * m, hx + 2 * m, hy + 2 * m});
+}
+
+}  // namespace
+
+BoxSupport box_support(const Box2d& box, const PolygonWithHoles& component, const SeamEvidence* seams,
+                       const LayoutParams& params) {
+  const LayoutFrame frame = frame_of(box);
+  const SeamTable table = table_around(box, frame, seams, params);
+  return box_support(box, frame, frame.to_frame(component), table.empty() ? nullptr : &table, params);
 }
 
 double seam_across_middle(const Box2d& box, const SeamEvidence* seams, const LayoutParams& params,
                           double reach_m) {
-  if (seams == nullptr || seams->empty() || !(seams->strength > 0.0)) return 0.0;
-  LayoutFrame frame;
-  frame.theta_rad = box.yaw_rad;
-  frame.pivot = box.center;
-  const double m = params.seams.margin_m;
-  const double hx = box.long_m / 2, hy = box.short_m / 2;
-  const SeamTable table(*seams, frame, Rect{-hx - 2 * m, -hy - 2 * m, hx + 2 * m, hy + 2 * m});
+  const LayoutFrame frame = frame_of(box);
+  const SeamTable table = table_around(box, frame, seams, params);
   if (table.empty()) return 0.0;
+  const double m = params.seams.margin_m;
+  const double hy = box.short_m / 2;
   BoxView view;
   view.table = &table;
   view.center = frame.to_frame(box.center);
