@@ -96,10 +96,9 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
   if (undecided == 0) return std::nullopt;
   return LevelVerdict{DetectionStatus::kOk,
                       std::to_string(undecided) +
-                          " box(es) could as well be boxes of another recipe format (one box "
-                          "where two or four stand side by side, or two or four where one "
-                          "stands): no seam "
-                          "is seen where they would differ and " +
+                          " box(es) could as well be boxes of another recipe format (one box where two "
+                          "or four stand side by side, or two or four where one stands): no seam is seen "
+                          "where they would differ and " +
                           seam_blindness(layout)};
 }
 

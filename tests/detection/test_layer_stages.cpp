@@ -25,6 +25,18 @@ std::vector<Eigen::Vector2d> rectangle_outline(double w, double h, double step) 
   for (double y = h; y > 0; y -= step) pts.emplace_back(0, y);
   return pts;
 }
+
+/// A 3 x 3 grid layer rendered without noise, the camera `distance_m` from its look-at point at
+/// the layer's height, tilted by `tilt_deg`: the tests add the noise they study.
+SynthFrame quiet_grid_layer(double tilt_deg, double distance_m) {
+  SynthCamera cam;
+  cam.tilt_deg = tilt_deg;
+  cam.distance_m = distance_m;
+  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
+  SynthNoise quiet;
+  quiet.sigma_m = 0.0;
+  return render_synthetic(grid_layer(3, 3, 0.0, 1.0, true), cam, quiet);
+}
 }  // namespace
 
 TEST_CASE("layer frame: orthonormal, z along the normal, origin on the plane") {
@@ -149,14 +161,7 @@ TEST_CASE("top plane: nearest large plane wins, a small stray in front does not"
 TEST_CASE("noise per depth: the band widens where the measured noise does") {
   // Depth noise growing with depth (as structured light's does with its square): a tilted view
   // spans about 0.6 m of depth over the layer, the measured sigma must follow it.
-  SynthScene s = grid_layer(3, 3, 0.0, 1.0, true);
-  SynthCamera cam;
-  cam.tilt_deg = 30.0;
-  cam.distance_m = 2.5;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
-  SynthNoise quiet;
-  quiet.sigma_m = 0.0;
-  SynthFrame f = render_synthetic(s, cam, quiet);
+  SynthFrame f = quiet_grid_layer(30.0, 2.5);
   std::mt19937 rng(5);
   std::normal_distribution<float> g(0.0F, 1.0F);
   for (auto& p : f.cloud.points) {
@@ -184,14 +189,7 @@ TEST_CASE("noise per depth: a quantised sensor's band spans one of its depth ste
   // in sub-pixel steps, in levels about 20 mm apart at that range, and each pixel reports the
   // level nearest to its noisy depth. A bin's spread depends on where the plane falls between
   // two levels; the layer's pixels lie on both.
-  SynthScene s = grid_layer(3, 3, 0.0, 1.0, true);
-  SynthCamera cam;
-  cam.tilt_deg = 0.0;
-  cam.distance_m = 2.66;
-  cam.look_at = Eigen::Vector3d(0, 0, 1.0);
-  SynthNoise quiet;
-  quiet.sigma_m = 0.0;
-  SynthFrame f = render_synthetic(s, cam, quiet);
+  SynthFrame f = quiet_grid_layer(0.0, 2.66);
   const Eigen::Vector3f n = f.top_plane_camera.normal.cast<float>();
   const auto d = static_cast<float>(f.top_plane_camera.d);
   std::vector<std::size_t> on_top;

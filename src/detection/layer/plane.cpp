@@ -12,6 +12,8 @@
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
 
+#include "palletd/core/statistics.hpp"
+
 #include "layer_stages.hpp"
 
 namespace palletd::layer {
@@ -112,9 +114,7 @@ double depth_step_per_z2(const std::vector<std::pair<float, float>>& zr) {
     const double mid = 0.5 * static_cast<double>(z[i] + z[i - 1]);
     per_z2.push_back(static_cast<double>(z[i] - z[i - 1]) / (mid * mid));
   }
-  auto middle = per_z2.begin() + static_cast<std::ptrdiff_t>(per_z2.size() / 2);
-  std::nth_element(per_z2.begin(), middle, per_z2.end());
-  return *middle;
+  return upper_median(std::move(per_z2));
 }
 
 /// Robust sigma (1.4826 x median |residual|) of the points near the plane (at most ~10^4
