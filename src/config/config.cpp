@@ -43,7 +43,7 @@ void read_shadow_config(const Context& ctx, const YAML::Node& node, Config& conf
   config.shadow = std::make_shared<const Config>(std::move(shadow));
 }
 
-void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
+void parse_into(const Context& ctx, const YAML::Node& root, CalibrationSource calibration, Config& config) {
   if (root.IsNull()) return;
   if (!root.IsMap()) fail(ctx, root, "", "the top level must be a mapping of sections, got " + describe(root));
   check_keys(ctx, root, "", top_level_keys());
@@ -66,11 +66,12 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
   if (const YAML::Node n = root["shadow_config"]) read_shadow_config(ctx, n, config);
 
   // Checks across keys, reported at the later key.
-  if (config.detection.roi && config.detection.roi->frame == RegionOfInterest::Frame::kBase && !config.T_base_camera) {
+  const bool calibrated = config.T_base_camera || calibration == CalibrationSource::kConfigurationOrFrames;
+  if (config.detection.roi && config.detection.roi->frame == RegionOfInterest::Frame::kBase && !calibrated) {
     fail(ctx, root["detection"]["roi"]["frame"], "detection.roi.frame",
          "a region in the base frame needs camera_to_base (or use frame: camera)");
   }
-  if (config.detection.pallet.top_z_m && !config.T_base_camera) {
+  if (config.detection.pallet.top_z_m && !calibrated) {
     fail(ctx, root["pallet"]["top_z_m"], "pallet.top_z_m", "a height in the base frame needs camera_to_base");
   }
   if (config.camera.reconnect_max_s < config.camera.reconnect_min_s) {
@@ -94,20 +95,21 @@ void parse_into(const Context& ctx, const YAML::Node& root, Config& config) {
 
 }  // namespace
 
-Config parse_config(const std::string& yaml_text, const std::string& name, const std::string& base_directory) {
+Config parse_config(const std::string& yaml_text, const std::string& name, const std::string& base_directory,
+                    CalibrationSource calibration) {
   const Context ctx{name, base_directory};
   const YAML::Node root = load_yaml(name, yaml_text);
   Config config;
   config.source_path = name;
   try {
-    parse_into(ctx, root, config);
+    parse_into(ctx, root, calibration, config);
   } catch (const YAML::Exception& e) {  // not expected; still reported as a config error
     fail_at(ctx, e.mark, "", e.msg);
   }
   return config;
 }
 
-Config load_config(const std::string& path) {
+Config load_config(const std::string& path, CalibrationSource calibration) {
   // A configuration is a regular file of a sane size: a device (/dev/zero) or a huge file named
   // by mistake (or by shadow_config) must fail, not hang the start.
   constexpr std::uintmax_t kMaxBytes = 1u << 20;
@@ -124,7 +126,7 @@ Config load_config(const std::string& path) {
   std::error_code ec;
   const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
   const std::string base = ec ? std::string() : absolute.parent_path().lexically_normal().string();
-  return parse_config(*text, path, base);
+  return parse_config(*text, path, base, calibration);
 }
 
 CellFile load_cell_file(const std::string& path) {

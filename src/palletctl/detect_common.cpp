@@ -50,7 +50,7 @@ DetectSetup make_detect_setup(const std::string& config_path, int recipe, const 
   Config config;
   if (!config_path.empty()) {
     try {
-      config = load_config(config_path);
+      config = load_config(config_path, CalibrationSource::kConfigurationOrFrames);
     } catch (const std::exception& e) {
       spdlog::error("{}", e.what());
       throw CLI::RuntimeError(kExitConfigError);

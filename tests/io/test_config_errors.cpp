@@ -373,6 +373,20 @@ TEST_CASE("config error: detection.roi (base frame without camera_to_base, min >
   CHECK_THAT(missing.what, Contains("max_m"));
 }
 
+TEST_CASE(
+    "config: offline tools take a base-frame region and pallet height whose calibration comes with the "
+    "frames") {
+  const std::string text =
+      "detection:\n  roi: {frame: base, min_m: [0, 0, 0], max_m: [1, 1, 1]}\npallet: {top_z_m: 0.14}\n";
+  CHECK_THROWS_AS(parse_config(text, "cell.yaml"), ConfigError);  // the daemon: no calibration, no region
+  const Config c = parse_config(text, "cell.yaml", "", CalibrationSource::kConfigurationOrFrames);
+  REQUIRE(c.detection.roi.has_value());
+  CHECK(c.detection.roi->frame == RegionOfInterest::Frame::kBase);
+  CHECK_FALSE(c.T_base_camera.has_value());
+  REQUIRE(c.detection.pallet.top_z_m.has_value());
+  CHECK(*c.detection.pallet.top_z_m == Approx(0.14));
+}
+
 TEST_CASE("config: pallet.top_z_m and formats' height_mm") {
   const Config c = parse_config(R"(camera_to_base: [1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1]
 formats:

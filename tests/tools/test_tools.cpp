@@ -219,8 +219,8 @@ TEST_CASE(
   CHECK(roi.exit_code == 0);
   CHECK_THAT(roi.out,
              Contains("detection:") && Contains("roi:") && Contains("frame: base") && Contains("min_m:"));
-  // The frame's calibration comes with the region: the snippet alone is a configuration detect
-  // accepts (a region in the base frame without camera_to_base is a configuration error).
+  // The frame's calibration comes with the region: the snippet alone is a configuration the daemon
+  // accepts too (its base-frame region needs camera_to_base in the file).
   CHECK_THAT(roi.out, Contains("camera_to_base: ["));
   const std::string snippet = dir.file("snippet.yaml");
   write(snippet, roi.out);
@@ -246,6 +246,46 @@ TEST_CASE(
       run("src/palletctl/palletctl", {"detect", empty_stem, "--box", "400x300", "--config", config});
   CHECK(detect.exit_code == 0);
   CHECK_THAT(detect.out, Contains("\"status\":\"empty\""));
+}
+
+TEST_CASE("palletctl detect with a cell file as configuration takes camera_to_base from each frame") {
+  TempDir dir;
+  const std::string out = dir.file("cells");
+  const Run sim = run("src/palletctl/palletctl", {"simulate", "--out", out, "-n", "1", "--scene", "empty",
+                                                  "--profile", "o3d303", "--cell", "--seed", "7"});
+  REQUIRE(sim.exit_code == 0);
+  std::string stem;
+  for (const auto& e : fs::directory_iterator(out)) {
+    const std::string name = e.path().string();
+    if (name.size() > 9 && name.substr(name.size() - 9) == ".roi.yaml")
+      stem = name.substr(0, name.size() - 9);
+  }
+  REQUIRE_FALSE(stem.empty());
+  // The file beside the frame holds a base-frame region and the pallet's height, no calibration.
+  REQUIRE(slurp(stem + ".roi.yaml").find("camera_to_base") == std::string::npos);
+  const Run detect =
+      run("src/palletctl/palletctl", {"detect", stem, "--box", "400x300", "--config", stem + ".roi.yaml"});
+  INFO(detect.err);
+  CHECK(detect.exit_code == 0);
+  CHECK_THAT(detect.out, Contains("\"status\":\"empty\""));
+
+  // A copy of the frame whose JSON has no camera_to_base fails alone, named, and the frame beside
+  // it in the same run still gets its answer.
+  const std::string bare = dir.file("bare");
+  fs::copy_file(stem + ".depth.png", bare + ".depth.png");
+  std::string json = slurp(stem + ".json");
+  const std::size_t key = json.find("\"camera_to_base\"");
+  REQUIRE(key != std::string::npos);
+  const std::size_t end = json.find(']', key);
+  const std::size_t comma = json.rfind(',', key);  // camera_to_base is not the JSON's first key
+  REQUIRE(comma != std::string::npos);
+  json.erase(comma, end + 1 - comma);
+  write(bare + ".json", json);
+  REQUIRE_FALSE(palletd::read_frame(bare)->T_base_camera.has_value());
+  const Run both = run("src/palletctl/palletctl",
+                       {"detect", bare, stem, "--box", "400x300", "--config", stem + ".roi.yaml"});
+  CHECK(both.exit_code != 0);
+  CHECK_THAT(both.out, Contains("no camera_to_base") && Contains("\"status\":\"empty\""));
 }
 
 TEST_CASE("palletctl compare lists the frames whose result differs between two configurations") {

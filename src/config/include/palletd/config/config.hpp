@@ -89,15 +89,22 @@ struct Config {
   std::shared_ptr<const Config> shadow;
 };
 
+/// Where the camera's calibration comes from. The daemon has only its configuration's
+/// camera_to_base: a base-frame region or pallet height without it is a configuration error.
+/// Offline tools (palletctl detect, eval, compare) fall back on each frame's JSON, and a frame
+/// that has none fails on its own with the reason.
+enum class CalibrationSource { kConfiguration, kConfigurationOrFrames };
 
 /// Loads and validates a configuration file. Throws ConfigError (start-up only).
 /// Relative paths in the file (camera.replay.directory, recording.directory) are resolved against
 /// the file's folder.
-Config load_config(const std::string& path);
+Config load_config(const std::string& path,
+                   CalibrationSource calibration = CalibrationSource::kConfiguration);
 /// The same from YAML text; `name` is used in error messages. Relative paths are resolved against
 /// `base_directory`, or left as written when it is empty.
 Config parse_config(const std::string& yaml_text, const std::string& name,
-                    const std::string& base_directory = "");
+                    const std::string& base_directory = "",
+                    CalibrationSource calibration = CalibrationSource::kConfiguration);
 
 /// The cell settings a file beside a frame may carry (STEM.roi.yaml, as the simulator and
 /// `palletctl roi` write it): `detection.roi` and `pallet`, in the configuration's syntax. A
