@@ -88,6 +88,58 @@ double step_position(const std::vector<double>& values) {
   return peak + sub - kSteps;
 }
 
+/// A side faces away from the camera (or towards it) when its outward normal makes at least this
+/// cosine with the direction from the camera's foot on the layer to the layer (or its opposite).
+constexpr double kFacingCos = 0.5;
+/// The most the outline is moved towards the camera: this share of the median offset.
+constexpr double kMaxShiftShare = 0.5;
+
+/// An outline sample where the intensity steps clearly: how far inside the outline [m].
+struct EdgeStep {
+  Eigen::Vector2d at_m;
+  Eigen::Vector2d out;
+  double offset_m = 0.0;
+};
+
+/// The offsets of the sides facing away from the camera and of those facing it, fitted as
+/// offset = inset + b (n . u), u the direction from the camera's foot point to the samples' middle:
+/// b from the two groups' medians at their mean cosines, the inset the median of what is left
+/// over every sample. The sides facing the camera are fattened less, not negatively: a group
+/// whose median lies outside the outline has found another step (a wall's foot, the floor), and
+/// the facing is not used. The shift is at most half the median offset.
+void fit_facing(const std::vector<EdgeStep>& steps, const Eigen::Vector2d& foot_m, std::size_t min_samples,
+                EdgeOffset& edges) {
+  edges.inset_m = edges.offset_m;
+  Eigen::Vector2d middle = Eigen::Vector2d::Zero();
+  for (const EdgeStep& s : steps) middle += s.at_m / static_cast<double>(steps.size());
+  const Eigen::Vector2d away = middle - foot_m;
+  if (!(away.norm() > 0.0) || !(edges.offset_m > 0.0)) return;
+  const Eigen::Vector2d u = away.normalized();
+  std::vector<double> far_m, near_m;
+  double far_cos = 0.0, near_cos = 0.0;
+  for (const EdgeStep& s : steps) {
+    const double c = s.out.dot(u);
+    if (c >= kFacingCos) {
+      far_m.push_back(s.offset_m);
+      far_cos += c;
+    } else if (c <= -kFacingCos) {
+      near_m.push_back(s.offset_m);
+      near_cos += c;
+    }
+  }
+  if (far_m.size() < min_samples || near_m.size() < min_samples) return;
+  far_cos /= static_cast<double>(far_m.size());
+  near_cos /= static_cast<double>(near_m.size());
+  const double far = upper_median(std::move(far_m)), near = upper_median(std::move(near_m));
+  if (!(near >= 0.0 && far >= 0.0)) return;
+  const double bound = kMaxShiftShare * edges.offset_m;
+  const double b = std::clamp((far - near) / (far_cos - near_cos), -bound, bound);
+  std::vector<double> left;
+  for (const EdgeStep& s : steps) left.push_back(s.offset_m - b * s.out.dot(u));
+  edges.inset_m = upper_median(std::move(left));
+  edges.shift_m = b * u;
+}
+
 }  // namespace
 
 EdgeOffset intensity_edge_offset(const Frame& frame, const LayerResult& layer, std::size_t min_samples) {
@@ -116,6 +168,7 @@ EdgeOffset intensity_edge_offset(const Frame& frame, const LayerResult& layer, s
   cv::projectPoints(points_camera, cv::Vec3d::zeros(), cv::Vec3d::zeros(), K, distortion, pixels);
 
   std::vector<double> offsets_m, values(2 * kSteps + 1);
+  std::vector<EdgeStep> steps;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     bool seen = true;
     for (std::size_t k = 0; k < values.size() && seen; ++k) {
@@ -124,11 +177,17 @@ EdgeOffset intensity_edge_offset(const Frame& frame, const LayerResult& layer, s
     }
     if (!seen) continue;
     const double at_steps = step_position(values);
-    if (std::isfinite(at_steps)) offsets_m.push_back(-at_steps * kStep_px * pitch_m);
+    if (!std::isfinite(at_steps)) continue;
+    offsets_m.push_back(-at_steps * kStep_px * pitch_m);
+    steps.push_back({samples[i].at_m, samples[i].out, offsets_m.back()});
   }
   if (offsets_m.size() < min_samples) return {};
-  const std::size_t steps = offsets_m.size();
-  return {upper_median(std::move(offsets_m)), steps};
+  EdgeOffset edges;
+  edges.samples = offsets_m.size();
+  edges.offset_m = upper_median(offsets_m);
+  const Eigen::Vector2d foot_m = (layer.T_camera_layer.inverse() * Eigen::Vector3d::Zero()).head<2>();
+  fit_facing(steps, foot_m, min_samples, edges);
+  return edges;
 }
 
 }  // namespace palletd

@@ -42,6 +42,12 @@ Ring2d from_cgal(const CgalPolygon& polygon) {
   return ring;
 }
 
+void translate(PolygonWithHoles& polygon, const Eigen::Vector2d& by_m) {
+  for (Eigen::Vector2d& p : polygon.outer) p += by_m;
+  for (Ring2d& hole : polygon.holes)
+    for (Eigen::Vector2d& p : hole) p += by_m;
+}
+
 /// Whether an edge of `a` meets an edge of `b`.
 bool rings_meet(const CgalPolygon& a, const CgalPolygon& b) {
   for (auto ea = a.edges_begin(); ea != a.edges_end(); ++ea)
@@ -141,12 +147,18 @@ LayerResult trim_fattened_edges(const Frame& frame, LayerResult layer, const Lay
     return layer;
   std::vector<PolygonWithHoles> moved;
   for (const PolygonWithHoles& polygon : layer.polygons) {
-    for (PolygonWithHoles& piece : inset(polygon, edges.offset_m)) moved.push_back(std::move(piece));
+    if (!(edges.inset_m > 0.0)) {
+      moved.push_back(polygon);
+      continue;
+    }
+    for (PolygonWithHoles& piece : inset(polygon, edges.inset_m)) moved.push_back(std::move(piece));
   }
   if (moved.empty()) return layer;  // nothing left: the offset is no fattening of these tops
+  for (PolygonWithHoles& piece : moved) translate(piece, -edges.shift_m);
   layer.polygons = std::move(moved);
   keep_points_inside(layer.polygons, layer);
-  layer.diagnostics.edges_moved_in_m = edges.offset_m;
+  layer.diagnostics.edges_moved_in_m = edges.inset_m;
+  layer.diagnostics.edges_shifted_m = edges.shift_m.norm();
   return layer;
 }
 

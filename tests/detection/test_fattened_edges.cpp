@@ -42,6 +42,45 @@ double worst_side_error_m(const Detection& d, const sim::SimulatedFrame& f) {
   return worst_m;
 }
 
+/// A block layer of 400x300 cartons seen by a d435 tilted 15-25 deg (the first such scenes from
+/// `seed` on): the near sides show their walls, the far ones hide the level behind them.
+std::vector<sim::SimulatedFrame> tilted_stereo_layers(std::uint64_t seed, std::size_t count) {
+  const sim::SensorProfile p = *sim::profile_by_name("d435");
+  sim::ScenarioOptions options;
+  options.pattern = sim::PatternFamily::kBlock;
+  options.formats = {*sim::parse_format("400x300x250")};
+  options.lower_layers_min = options.lower_layers_max = 1;
+  options.height_min_m = 1.8;
+  options.height_max_m = 2.4;
+  options.tilt_max_deg = 25.0;
+  options.gap_max_m = 0.006;
+  std::vector<sim::SimulatedFrame> frames;
+  for (; frames.size() < count; ++seed) {
+    Expected<sim::Scene> scene = sim::make_scene(options, p, seed);
+    REQUIRE(scene);
+    const double tilt_deg =
+        std::acos(-scene->T_world_camera.linear().col(2).z()) * 180.0 / M_PI;  // optical axis vs down
+    if (tilt_deg >= 15.0) frames.push_back(sim::render(*scene, p, seed));
+  }
+  return frames;
+}
+
+/// Mean over the boxes of how far each detected centre lies from its carton's, along the layer
+/// away from the camera [m] (positive: beyond the carton, on the far side).
+double mean_shift_away_m(const Detection& d, const sim::SimulatedFrame& f, std::size_t& boxes) {
+  double sum_m = 0.0;
+  const Eigen::Vector3d n = f.truth.layer_plane.normal.normalized();
+  for (const DetectedBox& b : d.boxes) {
+    for (const TruthBox& t : f.truth.boxes) {
+      if ((t.center - b.center).norm() > 0.1) continue;
+      const Eigen::Vector3d away = t.center - n * n.dot(t.center);  // from the camera's foot
+      sum_m += (b.center - t.center).dot(away.normalized());
+      ++boxes;
+    }
+  }
+  return sum_m;
+}
+
 }  // namespace
 
 TEST_CASE("a time-of-flight camera's edges agree in depth and intensity: the outline stays",
@@ -70,7 +109,9 @@ TEST_CASE("a stereo camera's fattened tops are moved back onto the intensity's e
   // Moved in: the intensity's edges now lie on the outline and the sides measure the cartons.
   const Detection d = detect(stereo.frame, {kNominal}, DetectionParams{});
   REQUIRE(d.status == DetectionStatus::kOk);
-  CHECK(d.layer.diagnostics.edges_moved_in_m == Approx(raw_edges.offset_m));
+  CHECK(d.layer.diagnostics.edges_moved_in_m == Approx(raw_edges.inset_m));
+  CHECK(d.layer.diagnostics.edges_shifted_m == Approx(raw_edges.shift_m.norm()));
+  CHECK(raw_edges.inset_m == Approx(raw_edges.offset_m).margin(0.002));
   CHECK(d.layer.diagnostics.layer_points == raw.layer.diagnostics.layer_points);
   CHECK(d.layer.points_2d.size() < raw.layer.points_2d.size());
   CHECK(std::abs(intensity_edge_offset(stereo.frame, d.layer).offset_m) < 0.5 * raw_edges.offset_m);
@@ -105,4 +146,38 @@ TEST_CASE("cartons nobody entered on fattened tops: sizes flagged as measured, r
     CHECK(b.long_m == Approx(0.400).margin(0.008));
     CHECK(b.short_m == Approx(0.300).margin(0.008));
   }
+}
+
+TEST_CASE(
+    "a tilted stereo camera fattens the sides that hide the level behind more: the boxes stay where they "
+    "stand",
+    "[fattened_edges]") {
+  double uniform_m = 0.0, facing_m = 0.0;
+  std::size_t uniform_boxes = 0, facing_boxes = 0;
+  for (const sim::SimulatedFrame& f : tilted_stereo_layers(41, 4)) {
+    const Detection raw = detect(f.frame, {kNominal}, untrimmed());
+    REQUIRE(raw.status == DetectionStatus::kOk);
+    const EdgeOffset edges = intensity_edge_offset(f.frame, raw.layer);
+    REQUIRE(edges.samples >= 20);
+    // The far sides' tops lie further outside their edges than the near sides': a shift away
+    // from the camera, at most half the median offset.
+    const Eigen::Vector3d foot = raw.layer.T_camera_layer.inverse() * Eigen::Vector3d::Zero();
+    INFO("offset " << edges.offset_m << " inset " << edges.inset_m << " shift " << edges.shift_m.transpose());
+    CHECK(edges.shift_m.norm() > 0.001);
+    CHECK(edges.shift_m.norm() <= 0.5 * edges.offset_m + 1e-9);
+    CHECK(edges.shift_m.dot(-foot.head<2>()) > 0.0);  // from the foot point towards the layer
+    // Moving every side in by one offset leaves the centres where the raw outline puts them.
+    uniform_m += mean_shift_away_m(raw, f, uniform_boxes);
+    const Detection d = detect(f.frame, {kNominal}, DetectionParams{});
+    REQUIRE(d.status == DetectionStatus::kOk);
+    CHECK(d.layer.diagnostics.edges_shifted_m == Approx(edges.shift_m.norm()));
+    facing_m += mean_shift_away_m(d, f, facing_boxes);
+  }
+  REQUIRE(facing_boxes > 0);
+  REQUIRE(uniform_boxes > 0);
+  facing_m /= static_cast<double>(facing_boxes);
+  uniform_m /= static_cast<double>(uniform_boxes);
+  INFO("mean shift away from the camera: one offset " << uniform_m << ", by facing " << facing_m);
+  CHECK(uniform_m > 0.003);
+  CHECK(std::abs(facing_m) < 0.5 * uniform_m);
 }

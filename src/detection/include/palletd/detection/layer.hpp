@@ -83,9 +83,12 @@ struct LayerDiagnostics {
   /// there is where the depth ends, not where the layer ends (LayerResult::reason says so).
   bool outline_along_invalid = false;
   /// How far inside the depth's outline the intensity image shows the layer's edges [m] (median
-  /// over the outline; 0 without an estimate), and how far the outline was moved in for it [m].
+  /// over the outline; 0 without an estimate), how far the outline was moved in for it [m], and
+  /// how far it was then moved towards the camera for the sides that face it and are fattened
+  /// less [m] (stage 5b, fattened_edges.hpp).
   double edge_offset_m = 0.0;
   double edges_moved_in_m = 0.0;
+  double edges_shifted_m = 0.0;
   double t_plane_ms = 0.0, t_layer_ms = 0.0, t_contour_ms = 0.0;
 };
 
