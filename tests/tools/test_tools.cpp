@@ -93,6 +93,22 @@ std::string camera_to_base_of(const std::string& stem) {
   return calibration.str();
 }
 
+/// One o3d303 frame of `scene` in a cell, simulated into dir/cells; its stem (STEM.roi.yaml beside it).
+std::string simulate_cell_frame(TempDir& dir, const std::string& scene, const std::string& seed) {
+  const std::string out = dir.file("cells");
+  const Run sim = run("src/palletctl/palletctl", {"simulate", "--out", out, "-n", "1", "--scene", scene,
+                                                  "--profile", "o3d303", "--cell", "--seed", seed});
+  REQUIRE(sim.exit_code == 0);
+  std::string stem;
+  for (const auto& e : fs::directory_iterator(out)) {
+    const std::string name = e.path().string();
+    if (name.size() > 9 && name.substr(name.size() - 9) == ".roi.yaml")
+      stem = name.substr(0, name.size() - 9);
+  }
+  REQUIRE_FALSE(stem.empty());
+  return stem;
+}
+
 }  // namespace
 
 TEST_CASE("palletd --version and palletctl --version print the version") {
@@ -250,17 +266,7 @@ TEST_CASE(
 
 TEST_CASE("palletctl detect with a cell file as configuration takes camera_to_base from each frame") {
   TempDir dir;
-  const std::string out = dir.file("cells");
-  const Run sim = run("src/palletctl/palletctl", {"simulate", "--out", out, "-n", "1", "--scene", "empty",
-                                                  "--profile", "o3d303", "--cell", "--seed", "7"});
-  REQUIRE(sim.exit_code == 0);
-  std::string stem;
-  for (const auto& e : fs::directory_iterator(out)) {
-    const std::string name = e.path().string();
-    if (name.size() > 9 && name.substr(name.size() - 9) == ".roi.yaml")
-      stem = name.substr(0, name.size() - 9);
-  }
-  REQUIRE_FALSE(stem.empty());
+  const std::string stem = simulate_cell_frame(dir, "empty", "7");
   // The file beside the frame holds a base-frame region and the pallet's height, no calibration.
   REQUIRE(slurp(stem + ".roi.yaml").find("camera_to_base") == std::string::npos);
   const Run detect =
@@ -322,17 +328,7 @@ TEST_CASE("palletctl compare lists the frames whose result differs between two c
 
 TEST_CASE("palletctl drift: --set writes a reference, frames are measured against it") {
   TempDir dir;
-  const std::string out = dir.file("cells");
-  const Run sim = run("src/palletctl/palletctl", {"simulate", "--out", out, "-n", "1", "--scene", "cell",
-                                                  "--profile", "o3d303", "--cell", "--seed", "8"});
-  REQUIRE(sim.exit_code == 0);
-  std::string stem;
-  for (const auto& e : fs::directory_iterator(out)) {
-    const std::string name = e.path().string();
-    if (name.size() > 9 && name.substr(name.size() - 9) == ".roi.yaml")
-      stem = name.substr(0, name.size() - 9);
-  }
-  REQUIRE_FALSE(stem.empty());
+  const std::string stem = simulate_cell_frame(dir, "cell", "8");
   const std::string config = dir.file("cell.yaml");
   write(config, slurp(stem + ".roi.yaml") + camera_to_base_of(stem) +
                     "health:\n  drift_reference: " + dir.file("ref/drift") + "\n");
@@ -356,7 +352,8 @@ TEST_CASE("palletctl drift: --set writes a reference, frames are measured agains
 
   // Without --frame the reference comes from the configured camera (here the replay driver).
   const std::string camera_config = dir.file("camera.yaml");
-  write(camera_config, slurp(config) + "camera:\n  driver: replay\n  replay:\n    directory: " + out + "\n");
+  write(camera_config,
+        slurp(config) + "camera:\n  driver: replay\n  replay:\n    directory: " + dir.file("cells") + "\n");
   fs::remove(dir.file("ref/drift.depth.png"));
   const Run grabbed = run("src/palletctl/palletctl", {"drift", "--config", camera_config, "--set"});
   INFO(grabbed.err);
