@@ -167,7 +167,7 @@ EdgeOffset intensity_edge_offset(const Frame& frame, const LayerResult& layer, s
   std::vector<cv::Point2f> pixels;
   cv::projectPoints(points_camera, cv::Vec3d::zeros(), cv::Vec3d::zeros(), K, distortion, pixels);
 
-  std::vector<double> offsets_m, values(2 * kSteps + 1);
+  std::vector<double> values(2 * kSteps + 1);
   std::vector<EdgeStep> steps;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     bool seen = true;
@@ -178,13 +178,14 @@ EdgeOffset intensity_edge_offset(const Frame& frame, const LayerResult& layer, s
     if (!seen) continue;
     const double at_steps = step_position(values);
     if (!std::isfinite(at_steps)) continue;
-    offsets_m.push_back(-at_steps * kStep_px * pitch_m);
-    steps.push_back({samples[i].at_m, samples[i].out, offsets_m.back()});
+    steps.push_back({samples[i].at_m, samples[i].out, -at_steps * kStep_px * pitch_m});
   }
-  if (offsets_m.size() < min_samples) return {};
+  if (steps.size() < min_samples) return {};
+  std::vector<double> offsets_m;
+  for (const EdgeStep& s : steps) offsets_m.push_back(s.offset_m);
   EdgeOffset edges;
-  edges.samples = offsets_m.size();
-  edges.offset_m = upper_median(offsets_m);
+  edges.samples = steps.size();
+  edges.offset_m = upper_median(std::move(offsets_m));
   const Eigen::Vector2d foot_m = (layer.T_camera_layer.inverse() * Eigen::Vector3d::Zero()).head<2>();
   fit_facing(steps, foot_m, min_samples, edges);
   return edges;

@@ -26,11 +26,10 @@ inline sim::Scene block_layer_scene(std::uint64_t seed) {
   return *scene;
 }
 
-/// A layer of one format in `pattern`, one level below it, seen by `profile` from 1.6-1.9 m with
-/// at most 5 deg of tilt and gaps up to gap_max_m.
-inline sim::SimulatedFrame render_layer(sim::PatternFamily pattern, const char* format, const char* profile,
-                                        std::uint64_t seed, double gap_max_m = 0.006) {
-  const sim::SensorProfile p = *sim::profile_by_name(profile);
+/// A layer of one format in `pattern`, one level below it, seen from 1.6-1.9 m with at most 5 deg
+/// of tilt and gaps up to gap_max_m.
+inline sim::ScenarioOptions layer_options(sim::PatternFamily pattern, const char* format,
+                                          double gap_max_m = 0.006) {
   sim::ScenarioOptions options;
   options.pattern = pattern;
   options.formats = {*sim::parse_format(format)};
@@ -39,7 +38,14 @@ inline sim::SimulatedFrame render_layer(sim::PatternFamily pattern, const char* 
   options.height_max_m = 1.9;
   options.tilt_max_deg = 5.0;
   options.gap_max_m = gap_max_m;
-  Expected<sim::Scene> scene = sim::make_scene(options, p, seed);
+  return options;
+}
+
+/// layer_options() seen by `profile`.
+inline sim::SimulatedFrame render_layer(sim::PatternFamily pattern, const char* format, const char* profile,
+                                        std::uint64_t seed, double gap_max_m = 0.006) {
+  const sim::SensorProfile p = *sim::profile_by_name(profile);
+  Expected<sim::Scene> scene = sim::make_scene(layer_options(pattern, format, gap_max_m), p, seed);
   REQUIRE(scene);
   return sim::render(*scene, p, seed);
 }

@@ -46,14 +46,10 @@ double worst_side_error_m(const Detection& d, const sim::SimulatedFrame& f) {
 /// `seed` on): the near sides show their walls, the far ones hide the level behind them.
 std::vector<sim::SimulatedFrame> tilted_stereo_layers(std::uint64_t seed, std::size_t count) {
   const sim::SensorProfile p = *sim::profile_by_name("d435");
-  sim::ScenarioOptions options;
-  options.pattern = sim::PatternFamily::kBlock;
-  options.formats = {*sim::parse_format("400x300x250")};
-  options.lower_layers_min = options.lower_layers_max = 1;
+  sim::ScenarioOptions options = testing::layer_options(sim::PatternFamily::kBlock, "400x300x250");
   options.height_min_m = 1.8;
   options.height_max_m = 2.4;
   options.tilt_max_deg = 25.0;
-  options.gap_max_m = 0.006;
   std::vector<sim::SimulatedFrame> frames;
   for (; frames.size() < count; ++seed) {
     Expected<sim::Scene> scene = sim::make_scene(options, p, seed);
@@ -65,9 +61,9 @@ std::vector<sim::SimulatedFrame> tilted_stereo_layers(std::uint64_t seed, std::s
   return frames;
 }
 
-/// Mean over the boxes of how far each detected centre lies from its carton's, along the layer
-/// away from the camera [m] (positive: beyond the carton, on the far side).
-double mean_shift_away_m(const Detection& d, const sim::SimulatedFrame& f, std::size_t& boxes) {
+/// Summed over the boxes (counted into `boxes`): how far each detected centre lies from its
+/// carton's, along the layer away from the camera [m] (positive: beyond the carton).
+double summed_shift_away_m(const Detection& d, const sim::SimulatedFrame& f, std::size_t& boxes) {
   double sum_m = 0.0;
   const Eigen::Vector3d n = f.truth.layer_plane.normal.normalized();
   for (const DetectedBox& b : d.boxes) {
@@ -167,11 +163,11 @@ TEST_CASE(
     CHECK(edges.shift_m.norm() <= 0.5 * edges.offset_m + 1e-9);
     CHECK(edges.shift_m.dot(-foot.head<2>()) > 0.0);  // from the foot point towards the layer
     // Moving every side in by one offset leaves the centres where the raw outline puts them.
-    uniform_m += mean_shift_away_m(raw, f, uniform_boxes);
+    uniform_m += summed_shift_away_m(raw, f, uniform_boxes);
     const Detection d = detect(f.frame, {kNominal}, DetectionParams{});
     REQUIRE(d.status == DetectionStatus::kOk);
     CHECK(d.layer.diagnostics.edges_shifted_m == Approx(edges.shift_m.norm()));
-    facing_m += mean_shift_away_m(d, f, facing_boxes);
+    facing_m += summed_shift_away_m(d, f, facing_boxes);
   }
   REQUIRE(facing_boxes > 0);
   REQUIRE(uniform_boxes > 0);
