@@ -150,3 +150,27 @@ TEST_CASE("per-box scores drop for a box crossed by a seam") {
   CHECK(good_min > 0.8);
   CHECK(wrong_max < good_min);
 }
+
+TEST_CASE("formats of one size listed twice are one carton and not a tie: boxes take the first index") {
+  // Two articles packed in the same carton: a recipe may list its size twice. The camera sees
+  // the same top either way, so the layout is not in doubt between them.
+  KnownLayout l = block(2, 2, 0.4, 0.3);
+  const BoxFormat carton = l.formats.front();
+  const BoxFormat other{0.5, 0.35, "500x350"};  // does not tile the layer
+  for (const std::vector<BoxFormat>& formats :
+       {std::vector<BoxFormat>{other, carton, carton}, std::vector<BoxFormat>{carton, other, carton}}) {
+    const int first = formats.front().long_m == carton.long_m ? 0 : 1;
+    const SeamEvidence seams = synthetic_seams(l, 0.003, 0.002);
+    const LayoutResult r = find_layout(union_outline(l), formats, LayoutParams{}, &seams);
+    REQUIRE(r.status == DetectionStatus::kOk);
+    std::vector<Box2d> truth = truth_boxes(l);
+    for (Box2d& t : truth) t.format = first;
+    CHECK(match_error(truth, r.boxes) >= 0.0);
+    CHECK_FALSE(r.ambiguous);
+  }
+  // A size listed twice with a wrong side is still named by its own index.
+  const LayoutResult bad =
+      find_layout({rectangle(0.8, 0.6)}, {carton, carton, {0.2, 0.3, "swapped"}}, LayoutParams{}, nullptr);
+  CHECK(bad.status == DetectionStatus::kNoLayout);
+  CHECK(bad.reason.find("box format 2") != std::string::npos);
+}

@@ -395,14 +395,15 @@ std::string box_formats_problem(const std::vector<BoxFormat>& formats) {
   return {};
 }
 
-LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
-                         const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                         const SeamEvidence* seams, const LayerSurroundings* surroundings) {
+namespace {
+
+/// find_layout() on formats of distinct sizes.
+LayoutResult find_distinct_layout(const std::vector<PolygonWithHoles>& components,
+                                  const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                                  const SeamEvidence* seams, const LayerSurroundings* surroundings) {
   const auto t0 = Clock::now();
   LayoutResult result;
-  if (std::string bad = box_formats_problem(formats); !bad.empty()) {
-    result.reason = bad;
-  } else if (components.empty()) {
+  if (components.empty()) {
     result.reason = "the layer has no outline";
   } else {
     const LayoutContext ctx = make_context(formats, params, seams, surroundings);
@@ -437,6 +438,22 @@ LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
     finish_status(reasons, result);
   }
   result.search_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  return result;
+}
+
+}  // namespace
+
+LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
+                         const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                         const SeamEvidence* seams, const LayerSurroundings* surroundings) {
+  if (std::string bad = box_formats_problem(formats); !bad.empty()) {
+    LayoutResult result;
+    result.reason = bad;
+    return result;
+  }
+  const DistinctFormats distinct = distinct_formats(formats);
+  LayoutResult result = find_distinct_layout(components, distinct.formats, params, seams, surroundings);
+  for (LayoutBox& b : result.boxes) b.format = distinct.original[static_cast<std::size_t>(b.format)];
   return result;
 }
 

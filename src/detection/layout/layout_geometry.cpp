@@ -311,6 +311,24 @@ FormatExtremes format_extremes(const std::vector<BoxFormat>& formats) {
   return e;
 }
 
+DistinctFormats distinct_formats(const std::vector<BoxFormat>& formats) {
+  constexpr double kSame_m = 0.0005;
+  DistinctFormats d;
+  for (std::size_t f = 0; f < formats.size(); ++f) {
+    const BoxFormat& a = formats[f];
+    const bool seen = std::any_of(d.formats.begin(), d.formats.end(), [&](const BoxFormat& b) {
+      const bool heights_alike =
+          (a.height_m <= 0.0 && b.height_m <= 0.0) || std::abs(a.height_m - b.height_m) < kSame_m;
+      return std::abs(a.long_m - b.long_m) < kSame_m && std::abs(a.short_m - b.short_m) < kSame_m &&
+             heights_alike;
+    });
+    if (seen) continue;
+    d.formats.push_back(a);
+    d.original.push_back(static_cast<int>(f));
+  }
+  return d;
+}
+
 double line_merge_tol_m(const LayoutParams& params, double min_short_m) {
   return params.search.line_merge_tol_m > 0 ? params.search.line_merge_tol_m : std::clamp(0.06 * min_short_m, 0.006, 0.02);
 }

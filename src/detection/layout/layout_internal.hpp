@@ -32,6 +32,15 @@ struct FormatExtremes {
 };
 FormatExtremes format_extremes(const std::vector<BoxFormat>& formats);
 
+/// A recipe's formats with those of one size merged: formats whose sides (and heights, where
+/// both are given) agree within half a millimetre are one carton to a camera that looks at the
+/// tops, so the search lays out the first of them. `original[i]`: the recipe index of formats[i].
+struct DistinctFormats {
+  std::vector<BoxFormat> formats;
+  std::vector<int> original;
+};
+DistinctFormats distinct_formats(const std::vector<BoxFormat>& formats);
+
 /// Candidate lines closer than this merge, and a seam may lie this far from a box side [m]:
 /// LayoutParams::line_merge_tol_m, or (0 = auto) 6 % of the shortest box side within 6-20 mm.
 double line_merge_tol_m(const LayoutParams& params, double min_short_m);
