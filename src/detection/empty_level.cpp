@@ -43,7 +43,6 @@ constexpr double kMaxSlotShare = 0.03;
 /// The slot is looked for this far (or two pixel pitches) inside the box's sides [m].
 constexpr double kSlotMargin_m = 0.025;
 
-/// Area centroid of the layer's polygons (layer frame) [m].
 /// Mean of a piece's outer vertices (layer frame) [m].
 Eigen::Vector2d piece_centre(const PolygonWithHoles& p) {
   Eigen::Vector2d c = Eigen::Vector2d::Zero();
@@ -51,6 +50,7 @@ Eigen::Vector2d piece_centre(const PolygonWithHoles& p) {
   return p.outer.empty() ? c : Eigen::Vector2d(c / static_cast<double>(p.outer.size()));
 }
 
+/// Area centroid of the layer's polygons (layer frame) [m].
 Eigen::Vector2d layer_centroid(const LayerResult& layer) {
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   double total = 0.0;
@@ -136,6 +136,71 @@ class LevelOutline {
   std::vector<Piece> pieces_;
 };
 
+/// A level whose outline runs along the region's sides for at least this share of its length
+/// goes on past the region: the region cut it out of something larger.
+constexpr double kRegionCutShare = 0.5;
+/// An outline edge lies along a side of the region when both its ends are this close to it [m].
+constexpr double kRegionSide_m = 0.03;
+/// The region's floor: a level this close above its bottom stands on nothing the region holds [m].
+constexpr double kRegionFloorBand_m = 0.1;
+
+/// The share of the level's outer outline that runs along the region's four sides (x and y in
+/// the region's frame): where the points beyond were cut away, not where a carton ends.
+double outline_share_on_region_sides(const LayerResult& layer, const RegionOfInterest& roi,
+                                     const Eigen::Isometry3d& T_roi_camera) {
+  auto side_of = [&](const Eigen::Vector3d& q) {
+    int sides = 0;
+    for (int axis = 0; axis < 2; ++axis) {
+      if (std::abs(q[axis] - roi.min_m[axis]) < kRegionSide_m) sides |= 1 << (2 * axis);
+      if (std::abs(q[axis] - roi.max_m[axis]) < kRegionSide_m) sides |= 2 << (2 * axis);
+    }
+    return sides;
+  };
+  double along_m = 0.0, total_m = 0.0;
+  for (const PolygonWithHoles& piece : layer.polygons) {
+    const Ring2d& ring = piece.outer;
+    for (std::size_t i = 0; i < ring.size(); ++i) {
+      const Eigen::Vector2d& a = ring[i];
+      const Eigen::Vector2d& b = ring[(i + 1) % ring.size()];
+      const double length_m = (b - a).norm();
+      total_m += length_m;
+      const Eigen::Vector3d qa = T_roi_camera * (layer.T_camera_layer * Eigen::Vector3d(a.x(), a.y(), 0.0));
+      const Eigen::Vector3d qb = T_roi_camera * (layer.T_camera_layer * Eigen::Vector3d(b.x(), b.y(), 0.0));
+      if ((side_of(qa) & side_of(qb)) != 0) along_m += length_m;
+    }
+  }
+  return total_m > 0.0 ? along_m / total_m : 0.0;
+}
+
+/// What the region of interest says of the level: nothing stands inside it when the level lies
+/// below the region, or at the region's floor and cut by its sides (the cell's floor or a
+/// station's surface without a load: a layer of cartons stands higher, inside the region).
+std::optional<LevelVerdict> region_verdict(const Frame& frame, const LayerResult& layer,
+                                           const RegionOfInterest& roi, const std::optional<double>& z_m) {
+  const bool in_base = roi.frame == RegionOfInterest::Frame::kBase;
+  if (in_base && !frame.T_base_camera) return std::nullopt;
+  const Eigen::Vector3d centre_camera =
+      layer.T_camera_layer * Eigen::Vector3d(layer_centroid(layer).x(), layer_centroid(layer).y(), 0.0);
+  // Height above the region's bottom: base z up; in the camera frame the bottom is furthest.
+  const double above_floor_m = in_base
+                                   ? (z_m ? *z_m - roi.min_m.z() : std::numeric_limits<double>::infinity())
+                                   : roi.max_m.z() - centre_camera.z();
+  if (above_floor_m < 0.0)
+    return LevelVerdict{DetectionStatus::kEmpty,
+                        "nothing stands inside the region of interest: the top level lies below it"};
+  if (above_floor_m >= kRegionFloorBand_m) return std::nullopt;
+  const Eigen::Isometry3d T_roi_camera = in_base ? *frame.T_base_camera : Eigen::Isometry3d::Identity();
+  const double cut = outline_share_on_region_sides(layer, roi, T_roi_camera);
+  if (cut < kRegionCutShare) return std::nullopt;
+  std::ostringstream share;
+  share.precision(2);
+  share << cut;
+  return LevelVerdict{DetectionStatus::kEmpty,
+                      "nothing stands inside the region of interest: the top level lies " +
+                          mm(above_floor_m) + " above its bottom and goes on past its sides (" + share.str() +
+                          " of its outline): the floor or the station, no load"};
+}
+
 }  // namespace
 
 std::optional<double> layer_base_z_m(const LayerResult& layer,
@@ -150,16 +215,8 @@ std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& l
                                         const std::vector<BoxFormat>& formats,
                                         const DetectionParams& params) {
   const std::optional<double> z_m = layer_base_z_m(layer, frame.T_base_camera);
-  if (params.roi) {
-    const RegionOfInterest& roi = *params.roi;
-    const Eigen::Vector3d centre_camera =
-        layer.T_camera_layer * Eigen::Vector3d(layer_centroid(layer).x(), layer_centroid(layer).y(), 0.0);
-    const bool below = roi.frame == RegionOfInterest::Frame::kBase ? (z_m && *z_m < roi.min_m.z())
-                                                                   : centre_camera.z() > roi.max_m.z();
-    if (below)
-      return LevelVerdict{DetectionStatus::kEmpty,
-                          "nothing stands inside the region of interest: the top level lies below it"};
-  }
+  if (params.roi)
+    if (std::optional<LevelVerdict> verdict = region_verdict(frame, layer, *params.roi, z_m)) return verdict;
   if (params.pallet.top_z_m && z_m) {
     const double h_box = min_height_m(formats);
     const double band = h_box > 0.0 ? kDeckBandBoxes * h_box : kDeckBand_m;

@@ -81,6 +81,41 @@ TEST_CASE("a level below the region of interest leaves it empty, inside it boxes
   CHECK(around.boxes.size() == f.truth.boxes.size());
 }
 
+TEST_CASE(
+    "a station without a load: its floor cut by the region is empty, a layer at the region's floor is not",
+    "[cell][empty]") {
+  // No pallet: the cell's floor fills the region, which cuts it to a rectangle at its bottom.
+  sim::ScenarioOptions options;
+  options.scene = sim::SceneFamily::kEmpty;
+  options.pallet = sim::PalletKind::kNone;
+  options.cell = true;
+  options.formats = {*sim::parse_format("400x300x250")};
+  for (const char* profile_name : {"helios2", "xtion"}) {
+    const sim::SensorProfile profile = *sim::profile_by_name(profile_name);
+    const Expected<sim::Scene> scene = sim::make_scene(options, profile, 5);
+    REQUIRE(scene);
+    REQUIRE(scene->has_roi);
+    const sim::SimulatedFrame f = sim::render(*scene, profile, 5);
+    REQUIRE(f.truth.boxes.empty());
+    DetectionParams params;
+    params.roi = RegionOfInterest{RegionOfInterest::Frame::kBase, scene->roi_min_m, scene->roi_max_m};
+    const Detection d = detect(f.frame, formats_of(f), params);
+    CAPTURE(profile_name, d.message);
+    CHECK(d.status == DetectionStatus::kEmpty);
+    CHECK(d.boxes.empty());
+  }
+  // A layer of cartons whose top lies just above the region's bottom, inside its sides: boxes.
+  const sim::SimulatedFrame f = render_family(sim::SceneFamily::kIsolated, "helios2", 7);
+  DetectionParams params;
+  params.roi =
+      RegionOfInterest{RegionOfInterest::Frame::kBase, Eigen::Vector3d(-1.0, -1.0, f.scene.top_z_m - 0.05),
+                       Eigen::Vector3d(1.0, 1.0, f.scene.top_z_m + 1.0)};
+  const Detection d = detect(f.frame, formats_of(f), params);
+  CAPTURE(d.message);
+  CHECK(d.status == DetectionStatus::kOk);
+  CHECK(d.boxes.size() == f.truth.boxes.size());
+}
+
 TEST_CASE("layers left from the pallet's height and the boxes' height", "[cell][height]") {
   const sim::SimulatedFrame f = render_family(sim::SceneFamily::kIsolated, "o3d303", 9, "400x300x250", 2);
   DetectionParams params;
