@@ -64,16 +64,18 @@ int run_detect(const DetectArgs& a) {
     const std::string name = std::filesystem::path(stem).filename().string();
     if (!a.overlay_dir.empty())
       write_bytes(std::filesystem::path(a.overlay_dir) / (name + ".overlay.png"), render_overlay_png(*frame, detection));
-    if (!a.debug_dir.empty()) {
-      // Re-run the first half with a trace: detect() itself keeps no intermediate images.
-      OrganizedCloud cloud;
-      to_organized_cloud(*frame, workspace.rays, cloud);
+    // A frame detect() could not read or cut to the region left no cloud of its own.
+    if (!a.debug_dir.empty() && detection.status != DetectionStatus::kBadFrame) {
+      // Re-run the first half with a trace (detect() keeps no intermediate images) on the cloud
+      // detect() left in the workspace: cut to the region of interest, as the detection saw it.
       double smallest_m2 = setup.size_range ? setup.size_range->long_min_m * setup.size_range->short_min_m : 1e9;
       for (const auto& f : setup.formats) smallest_m2 = std::min(smallest_m2, f.long_m * f.short_m);
+      const double min_piece_m2 = setup.params.layer.min_component_box_fraction * smallest_m2;
+      PlaneParams plane = setup.params.plane;  // the top level holds a piece of a box (detect())
+      plane.min_plane_area_m2 = std::max(plane.min_plane_area_m2, min_piece_m2);
       LayerTrace trace;
-      const LayerResult layer = extract_layer(*frame, cloud, setup.params.plane, setup.params.layer,
-                                              setup.params.contour,
-                                              setup.params.layer.min_component_box_fraction * smallest_m2, &trace);
+      const LayerResult layer = extract_layer(*frame, workspace.cloud, plane, setup.params.layer,
+                                              setup.params.contour, min_piece_m2, &trace);
       for (const auto& image : render_layer_debug_images(*frame, layer, trace)) {
         cv::imwrite((std::filesystem::path(a.debug_dir) / (name + "." + image.first + ".png")).string(), image.second);
       }

@@ -6,10 +6,12 @@
 #include <sstream>
 
 #include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <nlohmann/json.hpp>
 
 #include "palletd/frames/frame_io.hpp"
 
@@ -411,4 +413,40 @@ TEST_CASE("palletctl teach prints config entries palletd accepts, and detect tak
   const Run missing = run("src/palletctl/palletctl", {"teach", dir.file("no_such_frame")});
   CHECK(missing.exit_code == 2);
   CHECK_THAT(missing.err, Contains("no_such_frame"));
+}
+
+TEST_CASE("palletctl detect --debug-dir draws the layer the detection found inside the region of interest") {
+  TempDir dir;
+  const std::string stem = simulate_cell_frame(dir, "cell", "11");
+  const std::string name = fs::path(stem).filename().string();
+  // Layer pixels are tinted green on the grey depth image (render_layer_debug_images).
+  auto layer_pixels = [&](const std::string& debug_dir) {
+    const cv::Mat img = cv::imread(debug_dir + "/" + name + ".layer_mask.png", cv::IMREAD_COLOR);
+    REQUIRE_FALSE(img.empty());
+    std::vector<cv::Point> pts;
+    for (int v = 0; v < img.rows; ++v)
+      for (int u = 0; u < img.cols; ++u) {
+        const auto& px = img.at<cv::Vec3b>(v, u);
+        if (px[1] >= 128 && px[1] > px[0] + 40 && px[1] > px[2] + 40) pts.emplace_back(u, v);
+      }
+    return pts;
+  };
+  const std::string with_roi = dir.file("with_roi"), without = dir.file("without");
+  fs::create_directories(with_roi);
+  fs::create_directories(without);
+  const Run in_cell = run("src/palletctl/palletctl", {"detect", stem, "--box", "400x300", "--config",
+                                                      stem + ".roi.yaml", "--debug-dir", with_roi});
+  const Run whole_view =
+      run("src/palletctl/palletctl", {"detect", stem, "--box", "400x300", "--debug-dir", without});
+  INFO(in_cell.err << whole_view.err);
+  const auto layer_area = [](const std::string& out) {
+    return nlohmann::json::parse(out.substr(0, out.find('\n')))["layer"]["area_m2"].get<double>();
+  };
+  // The cabinet's top is the highest plane in the whole view; the load's top inside the region.
+  REQUIRE(std::abs(layer_area(in_cell.out) - layer_area(whole_view.out)) > 0.02);
+  const std::vector<cv::Point> a = layer_pixels(with_roi), b = layer_pixels(without);
+  REQUIRE(a.size() > 100);
+  REQUIRE(b.size() > 100);
+  const cv::Rect box_a = cv::boundingRect(a), box_b = cv::boundingRect(b);
+  CHECK((box_a & box_b).area() < box_a.area() / 2);  // two different planes, not one drawn twice
 }
