@@ -120,9 +120,13 @@ int main(int argc, char** argv) {
           1e3 *
           (c.boxes[static_cast<std::size_t>(other)].now.base_position->head<2>() - truth_box.center).norm());
     if (!right && std::getenv("PALLETD_BENCH_VERBOSE") != nullptr)
-      std::fprintf(stderr, "%d %s %s: %s expected, %s: %s (moved %.1f mm, turned %.1f deg)\n", i,
-                   profiles[pi].c_str(), cases[kind], to_string(expected[kind]), to_string(c.verdict),
-                   c.message.c_str(), moved_mm, turned_deg);
+      std::fprintf(stderr,
+                   "%d %s %s: %s expected, %s: %s (moved %.1f mm, turned %.1f deg; the check saw the "
+                   "neighbour move %.1f mm, turn %.1f deg, %d sides seen)\n",
+                   i, profiles[pi].c_str(), cases[kind], to_string(expected[kind]), to_string(c.verdict),
+                   c.message.c_str(), moved_mm, turned_deg, c.boxes[static_cast<std::size_t>(other)].shift_mm,
+                   c.boxes[static_cast<std::size_t>(other)].turn_deg,
+                   c.boxes[static_cast<std::size_t>(other)].sides_seen);
   }
   std::printf(
       "| profile | checks | right | clean | missed | double | neighbour moved | missed or double called "
