@@ -20,6 +20,13 @@ std::vector<std::string> config_warnings(const Config& config) {
     for (const LookAlikeFormats& p : look_alike_formats(formats, max_oversize, max_gap_m)) {
       const BoxFormat& a = formats[p.a];
       const BoxFormat& b = formats[p.b];
+      if (same_carton(a, b)) {
+        out.push_back("recipe " + std::to_string(r.number) + " (" + r.name + "): formats " + a.name +
+                      " and " + b.name + " are one carton size (" + mm(a.long_m) + "x" + mm(a.short_m) +
+                      "): a camera sees the same top, so their boxes are reported as " + a.name +
+                      ", the first of them");
+        continue;
+      }
       out.push_back("recipe " + std::to_string(r.number) + " (" + r.name + "): formats " + mm(a.long_m) +
                     "x" + mm(a.short_m) + " and " + mm(b.long_m) + "x" + mm(b.short_m) + " differ by " +
                     mm(p.long_diff_m) + " and " + mm(p.short_diff_m) +

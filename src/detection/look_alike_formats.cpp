@@ -24,4 +24,12 @@ std::vector<LookAlikeFormats> look_alike_formats(const std::vector<BoxFormat>& f
   return out;
 }
 
+bool same_carton(const BoxFormat& a, const BoxFormat& b) {
+  constexpr double kSame_m = 0.0005;
+  const bool heights_alike =
+      (a.height_m <= 0.0 && b.height_m <= 0.0) || std::abs(a.height_m - b.height_m) < kSame_m;
+  return std::abs(a.long_m - b.long_m) < kSame_m && std::abs(a.short_m - b.short_m) < kSame_m &&
+         heights_alike;
+}
+
 }  // namespace palletd

@@ -159,8 +159,10 @@ TEST_CASE("palletd --check-config warns of a recipe whose formats look alike, an
         "formats:\n  - {name: small, long_mm: 400, short_mm: 300}\n  - {name: big, long_mm: 420, short_mm: "
         "320}\n"
         "  - {name: euro, long_mm: 600, short_mm: 400}\n"
+        "  - {name: twin, long_mm: 400, short_mm: 300}\n"
         "recipes:\n  - {number: 3, name: two sizes, formats: [small, big]}\n"
         "  - {number: 4, name: euro mix, formats: [euro, small]}\n"
+        "  - {number: 5, name: two articles, formats: [small, twin]}\n"
         "pipeline: {default_recipe: 3}\n");
   const Run r = run("src/palletd/palletd", {"--check-config", file});
   INFO(r.err);
@@ -170,6 +172,11 @@ TEST_CASE("palletd --check-config warns of a recipe whose formats look alike, an
       r.err,
       Contains(file + ": warning: recipe 3 (two sizes): formats 400x300 and 420x320 differ by 20 and 20 mm"));
   CHECK_THAT(r.err, !Contains("recipe 4"));  // one box or two: seams and tape decide that
+  // One carton size under two names: not a doubt, the first name is reported.
+  CHECK_THAT(r.err,
+             Contains("recipe 5 (two articles): formats small and twin are one carton size (400x300)") &&
+                 Contains("reported as small"));
+  CHECK_THAT(r.err, !Contains("recipe 5 (two articles): formats 400x300 and 400x300 differ"));
 }
 
 TEST_CASE("palletd --config refuses a bad file with exit code 78 before starting anything") {

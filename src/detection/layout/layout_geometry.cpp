@@ -5,6 +5,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "palletd/detection/look_alike_formats.hpp"
+
 #include "evidence/seam_raster.hpp"
 #include "layer_raster.hpp"
 #include "layout_internal.hpp"
@@ -312,17 +314,12 @@ FormatExtremes format_extremes(const std::vector<BoxFormat>& formats) {
 }
 
 DistinctFormats distinct_formats(const std::vector<BoxFormat>& formats) {
-  constexpr double kSame_m = 0.0005;
   DistinctFormats d;
   for (std::size_t f = 0; f < formats.size(); ++f) {
     const BoxFormat& a = formats[f];
-    const bool seen = std::any_of(d.formats.begin(), d.formats.end(), [&](const BoxFormat& b) {
-      const bool heights_alike =
-          (a.height_m <= 0.0 && b.height_m <= 0.0) || std::abs(a.height_m - b.height_m) < kSame_m;
-      return std::abs(a.long_m - b.long_m) < kSame_m && std::abs(a.short_m - b.short_m) < kSame_m &&
-             heights_alike;
-    });
-    if (seen) continue;
+    if (std::any_of(d.formats.begin(), d.formats.end(),
+                    [&](const BoxFormat& b) { return same_carton(a, b); }))
+      continue;
     d.formats.push_back(a);
     d.original.push_back(static_cast<int>(f));
   }

@@ -32,9 +32,9 @@ struct FormatExtremes {
 };
 FormatExtremes format_extremes(const std::vector<BoxFormat>& formats);
 
-/// A recipe's formats with those of one size merged: formats whose sides (and heights, where
-/// both are given) agree within half a millimetre are one carton to a camera that looks at the
-/// tops, so the search lays out the first of them. `original[i]`: the recipe index of formats[i].
+/// A recipe's formats with those of one carton size merged (same_carton(): a camera that looks
+/// at the tops sees the same carton), so the search lays out the first of them. `original[i]`:
+/// the recipe index of formats[i].
 struct DistinctFormats {
   std::vector<BoxFormat> formats;
   std::vector<int> original;

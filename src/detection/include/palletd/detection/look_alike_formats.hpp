@@ -25,4 +25,9 @@ struct LookAlikeFormats {
 std::vector<LookAlikeFormats> look_alike_formats(const std::vector<BoxFormat>& formats, double max_oversize,
                                                  double max_gap_m);
 
+/// Whether two formats are one carton size: sides and heights (both unknown, or given) within
+/// half a millimetre. A camera sees the same top either way; the layout search lays out the
+/// first of such formats and its boxes carry that one's index.
+bool same_carton(const BoxFormat& a, const BoxFormat& b);
+
 }  // namespace palletd
