@@ -136,8 +136,10 @@ class LevelOutline {
   std::vector<Piece> pieces_;
 };
 
-/// A level whose outline runs along the region's sides for at least this share of its length
-/// goes on past the region: the region cut it out of something larger.
+/// A level whose outline runs along the region's sides, and along pixels the region left
+/// without depth, for at least this share of its length goes on past the region: the region cut
+/// it out of something larger. (A carton layer's edge beside a side of a tight region has a
+/// lower level or the floor below the region beyond it, which keeps its depth.)
 constexpr double kRegionCutShare = 0.5;
 /// An outline edge lies along a side of the region when both its ends are this close to it [m].
 constexpr double kRegionSide_m = 0.03;
@@ -179,8 +181,8 @@ std::optional<LevelVerdict> region_verdict(const Frame& frame, const LayerResult
                                            const RegionOfInterest& roi, const std::optional<double>& z_m) {
   const bool in_base = roi.frame == RegionOfInterest::Frame::kBase;
   if (in_base && !frame.T_base_camera) return std::nullopt;
-  const Eigen::Vector3d centre_camera =
-      layer.T_camera_layer * Eigen::Vector3d(layer_centroid(layer).x(), layer_centroid(layer).y(), 0.0);
+  const Eigen::Vector2d centre = layer_centroid(layer);
+  const Eigen::Vector3d centre_camera = layer.T_camera_layer * Eigen::Vector3d(centre.x(), centre.y(), 0.0);
   // Height above the region's bottom: base z up; in the camera frame the bottom is furthest.
   const double above_floor_m = in_base
                                    ? (z_m ? *z_m - roi.min_m.z() : std::numeric_limits<double>::infinity())
@@ -191,7 +193,8 @@ std::optional<LevelVerdict> region_verdict(const Frame& frame, const LayerResult
   if (above_floor_m >= kRegionFloorBand_m) return std::nullopt;
   const Eigen::Isometry3d T_roi_camera = in_base ? *frame.T_base_camera : Eigen::Isometry3d::Identity();
   const double cut = outline_share_on_region_sides(layer, roi, T_roi_camera);
-  if (cut < kRegionCutShare) return std::nullopt;
+  if (cut < kRegionCutShare || layer.diagnostics.unobserved_outline_fraction < kRegionCutShare)
+    return std::nullopt;
   std::ostringstream share;
   share.precision(2);
   share << cut;

@@ -104,16 +104,32 @@ TEST_CASE(
     CHECK(d.status == DetectionStatus::kEmpty);
     CHECK(d.boxes.empty());
   }
-  // A layer of cartons whose top lies just above the region's bottom, inside its sides: boxes.
+  // A layer of cartons whose top lies just above the region's bottom: boxes, inside the region's
+  // sides and also with the sides drawn tight around it (the floor below the region beyond them
+  // keeps its depth: the layer ends there, the region does not cut it).
   const sim::SimulatedFrame f = render_family(sim::SceneFamily::kIsolated, "helios2", 7);
-  DetectionParams params;
-  params.roi =
-      RegionOfInterest{RegionOfInterest::Frame::kBase, Eigen::Vector3d(-1.0, -1.0, f.scene.top_z_m - 0.05),
-                       Eigen::Vector3d(1.0, 1.0, f.scene.top_z_m + 1.0)};
-  const Detection d = detect(f.frame, formats_of(f), params);
-  CAPTURE(d.message);
-  CHECK(d.status == DetectionStatus::kOk);
-  CHECK(d.boxes.size() == f.truth.boxes.size());
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e9), hi = Eigen::Vector2d::Constant(-1e9);
+  for (const std::size_t k : f.scene.top_layer) {
+    const sim::SimBox& b = f.scene.boxes[k];
+    const Eigen::Rotation2Dd R(b.yaw_rad);
+    for (const double sx : {-0.5, 0.5})
+      for (const double sy : {-0.5, 0.5}) {
+        const Eigen::Vector2d c = b.center + R * Eigen::Vector2d(sx * b.long_m, sy * b.short_m);
+        lo = lo.cwiseMin(c);
+        hi = hi.cwiseMax(c);
+      }
+  }
+  for (const double margin_m : {0.3, 0.005}) {
+    DetectionParams params;
+    params.roi =
+        RegionOfInterest{RegionOfInterest::Frame::kBase,
+                         Eigen::Vector3d(lo.x() - margin_m, lo.y() - margin_m, f.scene.top_z_m - 0.05),
+                         Eigen::Vector3d(hi.x() + margin_m, hi.y() + margin_m, f.scene.top_z_m + 1.0)};
+    const Detection d = detect(f.frame, formats_of(f), params);
+    CAPTURE(margin_m, d.message);
+    CHECK(d.status == DetectionStatus::kOk);
+    CHECK(d.boxes.size() == f.truth.boxes.size());
+  }
 }
 
 TEST_CASE("layers left from the pallet's height and the boxes' height", "[cell][height]") {
