@@ -16,6 +16,10 @@ using level_detail::min_short_m;
 using level_detail::mm;
 using level_detail::points_mm;
 
+/// A piece of the layer smaller than a box that the image's edge cuts, at least this share of the
+/// smallest box's top, is a carton the camera sees only part of (smaller ones are specks of depth
+/// at the layer's height along the edge).
+constexpr double kCutPieceShare = 0.1;
 /// A layout is "seamless" when its interior sides show a seam along less than this share.
 constexpr double kSeamlessShare = 0.1;
 /// The groove between two cartons (their rounded top edges, 3 mm radius and more, plus the gap)
@@ -266,6 +270,20 @@ std::optional<LevelVerdict> pieces_without_boxes(const LayoutResult& layout, con
                                                 "height that no carton of the recipe explains"};
 }
 
+std::optional<LevelVerdict> pieces_cut_by_image(const LayerResult& layer,
+                                                const std::vector<BoxFormat>& formats) {
+  const double smallest_m2 = level_detail::min_area_m2(formats);
+  const double cut_m2 = layer.diagnostics.largest_cut_piece_m2;
+  if (!(cut_m2 >= kCutPieceShare * smallest_m2)) return std::nullopt;
+  std::ostringstream size;
+  size.precision(2);
+  size << cut_m2 / smallest_m2;
+  return LevelVerdict{DetectionStatus::kOk,
+                      "the image's edge cuts off part of the layer too small to place a box "
+                      "on (the largest " +
+                          size.str() + " times the smallest box's top): the boxes there are not reported"};
+}
+
 std::optional<LevelVerdict> search_unfinished(const LayoutResult& layout) {
   if (!layout.budget_exhausted) return std::nullopt;
   const std::string unfinished =
@@ -296,20 +314,22 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
   // sheet with a torn corner or a curled edge, or sagging into a chimney) are named nothing but
   // stay in doubt: it may still be a sheet the gripper would take for cartons. Where it cannot
   // show seams, a rectangle with holes stays in doubt too (a sheet with dropouts, or cartons around
-  // a chimney, look the same), and so does an outline cut where the depth ends; any other shape
-  // is cartons.
+  // a chimney, look the same), and so does an outline cut where the depth or the image ends; any
+  // other shape is cartons.
   const bool one_piece = layer.polygons.size() == 1;
   const double rect_m2 =
       one_piece ? static_cast<double>(min_area_rect(layer.polygons.front().outer).size.area()) * 1e-6 : 0.0;
   const bool rectangle = one_piece && rect_m2 > 0.0 &&
                          std::abs(signed_area(layer.polygons.front().outer)) >= kRectangleFill * rect_m2;
   if (!rectangle || (camera_shows_seams && has_carton_sized_hole(layer.polygons.front()))) {
-    // An outline cut where the depth ends shows no shape: the sheet may go on unseen there.
-    if (!camera_shows_seams && layer.diagnostics.outline_along_invalid) {
+    // An outline cut where the depth or the image ends shows no shape: the sheet may go on unseen.
+    const LayerDiagnostics& seen = layer.diagnostics;
+    if (!camera_shows_seams && (seen.outline_along_invalid || seen.touches_image_border)) {
       return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
                                                     " of their shared sides) and " + seam_blindness(layout) +
-                                                    ", on a layer whose outline runs where the depth ends: a "
-                                                    "slip sheet cannot be ruled out"};
+                                                    ", on a layer whose outline runs where the " +
+                                                    (seen.outline_along_invalid ? "depth" : "image") +
+                                                    " ends: a slip sheet cannot be ruled out"};
     }
     if (!camera_shows_seams) return std::nullopt;
     return LevelVerdict{DetectionStatus::kOk, "no seam is seen between the boxes (" + share.str() +
@@ -334,14 +354,15 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
                                                const PlaneParams& validity, const RefineParams& refine,
                                                const std::optional<Eigen::Isometry3d>& T_base_camera) {
   // A confident layout stands; a failed or flagged one, or one with boxes over slots or holes or
-  // pieces of the layer without boxes, on a level as low as a pallet's deck is the empty pallet
-  // (stereo cameras and coarse pitches merge its boards and gaps into strips or one slab that
-  // boxes tile).
+  // pieces of the layer without boxes or cut off by the image's edge, on a level as low as a pallet's deck is
+  // the empty pallet (stereo cameras and coarse pitches merge its boards and gaps into strips or one slab
+  // that boxes tile).
   const bool ok = layout.status == DetectionStatus::kOk;
   std::optional<LevelVerdict> slots = ok ? boxes_over_slots(layout, layer) : std::nullopt;
   std::optional<LevelVerdict> unlaid = ok ? pieces_without_boxes(layout, layer, formats) : std::nullopt;
   std::optional<LevelVerdict> holes = ok ? boxes_over_holes(cloud, layout, layer) : std::nullopt;
-  if (!ok || layout.ambiguous || slots || unlaid || holes)
+  std::optional<LevelVerdict> cut = ok ? pieces_cut_by_image(layer, formats) : std::nullopt;
+  if (!ok || layout.ambiguous || slots || unlaid || holes || cut)
     if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity, T_base_camera))
       return deck;
   if (slots) return slots;
@@ -349,6 +370,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (holes) return holes;
   if (!ok) return std::nullopt;
   if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
+  if (cut) return cut;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
   if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;
   if (std::optional<LevelVerdict> crossed = seams_across_boxes(layout)) return crossed;

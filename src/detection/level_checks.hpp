@@ -58,6 +58,12 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
 /// flagged (kOk).
 std::optional<LevelVerdict> mix_by_outline(const LayoutResult& layout);
 
+/// A piece of the layer the image's edge cuts off (LayerDiagnostics::largest_cut_piece_m2) too
+/// small to be kept as part of the layer, yet a sizeable share of the smallest box's top: a
+/// carton the camera sees only part of, which the layout cannot hold: flagged (kOk).
+std::optional<LevelVerdict> pieces_cut_by_image(const LayerResult& layer,
+                                                const std::vector<BoxFormat>& formats);
+
 /// Boxes with a seam line across their top at least as strong as one that tells one box from two
 /// (LayoutBox evidence interior_seam >= 0.5), on a camera that shows narrow seams (a fine pitch
 /// and mixed pixels at edges): no carton's top shows one, so the cartons stand otherwise than

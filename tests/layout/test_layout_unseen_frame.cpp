@@ -182,3 +182,27 @@ TEST_CASE("surroundings built once for the longest size complete the boxes each 
   CHECK(solve_layout(s.frame, cloud, d.layer, evidence, s.formats, p).completed_unseen ==
         own.completed_unseen);
 }
+
+// Frame 17 of `palletctl simulate --out H1 -n 200 --pattern all --profile all --scene all --cell
+// --partial-view --height-min 0.8 --oversize-max 0.04 --corner-radius 3:8 --gap-max 12 --fill
+// 0.3:1 --removal all --tilt-max 30 --seed 91011` (its region of interest below): a slip sheet
+// over a block of 600 x 400 on helios2, one corner beyond the image's edge. The sheet's edges
+// hang and show few mixed pixels, so this frame does not show narrow seams; the outline cut by
+// the image's edge is no rectangle, and the seamless layer was taken for four cartons, unflagged.
+TEST_CASE("a seamless layer the image's edge cuts is not taken for cartons") {
+  const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/flags/slip_sheet_cut_by_image_edge_helios2";
+  const Expected<Frame> frame = read_frame(stem);
+  REQUIRE(frame);
+  DetectionParams params;
+  RegionOfInterest roi;
+  roi.frame = RegionOfInterest::Frame::kBase;
+  roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.094);
+  roi.max_m = Eigen::Vector3d(0.7, 0.5, 1.194);
+  params.roi = roi;
+  const Detection d = detect(*frame, {{0.6, 0.4, "600x400"}}, params);
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
+  REQUIRE(d.clipped_by_image_border);
+  REQUIRE_FALSE(d.outline_unobserved);  // the rule for an outline cut where the depth ends is not what holds
+  CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
+  CHECK_THAT(d.ambiguity_reason, Catch::Contains("a slip sheet cannot be ruled out"));
+}

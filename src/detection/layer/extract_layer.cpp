@@ -326,6 +326,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
       lm.mask, lm.border, cloud, top.plane, K, min_component_area_m2, layer_params.min_hole_area_px);
   result.diagnostics.components = comps.kept.size();
   result.diagnostics.dropped_components = comps.dropped;
+  result.diagnostics.largest_cut_piece_m2 = comps.largest_cut_m2;
   result.diagnostics.border_points = static_cast<std::size_t>(cv::countNonZero(lm.border));
   const Eigen::Isometry3d T_layer_camera = result.T_camera_layer.inverse();
   collect_layer_points(lm.mask, cloud, T_layer_camera, plane_params, result);

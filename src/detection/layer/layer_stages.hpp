@@ -148,6 +148,9 @@ struct Component {
 struct Components {
   std::vector<Component> kept;
   std::size_t dropped = 0;
+  /// The largest dropped component that reaches the image's edge [m^2]: part of a carton the
+  /// image cuts off (0: none).
+  double largest_cut_m2 = 0.0;
 };
 
 /// Components (8-connected) with their holes from cv::findContours (RETR_CCOMP); components

@@ -86,6 +86,18 @@ LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, const Band
   return out;
 }
 
+namespace {
+
+/// Whether a component's bounding box (a row of cv::connectedComponentsWithStats) reaches the
+/// image's first or last row or column.
+bool touches_frame(const cv::Mat& stat, cv::Size image) {
+  const int x = stat.at<int>(cv::CC_STAT_LEFT), y = stat.at<int>(cv::CC_STAT_TOP);
+  return x == 0 || y == 0 || x + stat.at<int>(cv::CC_STAT_WIDTH) == image.width ||
+         y + stat.at<int>(cv::CC_STAT_HEIGHT) == image.height;
+}
+
+}  // namespace
+
 Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud& cloud,
                            const Plane& plane, const Intrinsics& intrinsics, double min_area_m2,
                            int min_hole_area_px) {
@@ -95,8 +107,8 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
   std::vector<cv::Vec4i> hierarchy;
   cv::findContours(mask.clone(), contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
 
-  cv::Mat labels;
-  const int n_labels = cv::connectedComponents(mask, labels, 8, CV_32S);
+  cv::Mat labels, stats, centroids;
+  const int n_labels = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
   std::vector<double> label_area(static_cast<std::size_t>(std::max(n_labels, 1)), 0.0);
   const double dist = std::max(plane.d, 1e-6);
   for (int v = 0; v < mask.rows; ++v) {
@@ -138,7 +150,11 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
     const double area = label > 0 ? label_area[static_cast<std::size_t>(label)] : 0.0;
     if (area < min_area_m2) {
       ++out.dropped;
-      if (label > 0) label_dropped[static_cast<std::size_t>(label)] = 1;
+      if (label > 0) {
+        label_dropped[static_cast<std::size_t>(label)] = 1;
+        if (touches_frame(stats.row(label), mask.size()))
+          out.largest_cut_m2 = std::max(out.largest_cut_m2, area);
+      }
       continue;
     }
     Component comp;

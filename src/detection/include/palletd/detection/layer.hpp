@@ -71,6 +71,9 @@ struct LayerDiagnostics {
   std::size_t filled_dropouts = 0;     ///< invalid pixels inside the layer taken as layer
   std::size_t components = 0;          ///< components kept
   std::size_t dropped_components = 0;  ///< components smaller than the minimum area
+  /// The largest of the dropped components that reach the image's edge [m^2] (0: none): what
+  /// the image shows of a carton it cuts off.
+  double largest_cut_piece_m2 = 0.0;
   std::size_t plane_candidates = 0;    ///< large enough planes seen while looking for the top
   double plane_sigma_m = 0.0;          ///< robust sigma (1.4826 MAD) of the residuals near the plane [m]
   double passthrough_tolerance_m = 0.0;  ///< widest |z| band used [m] (the band follows the depth)
