@@ -352,17 +352,18 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
                                                const PlaneParams& validity, const RefineParams& refine,
-                                               const std::optional<Eigen::Isometry3d>& T_base_camera) {
+                                               const std::optional<Eigen::Isometry3d>& T_base_camera,
+                                               bool above_known_deck) {
   // A confident layout stands; a failed or flagged one, or one with boxes over slots or holes or
-  // pieces of the layer without boxes or cut off by the image's edge, on a level as low as a pallet's deck is
-  // the empty pallet (stereo cameras and coarse pitches merge its boards and gaps into strips or one slab
-  // that boxes tile).
+  // pieces of the layer without boxes or cut off by the image's edge, on a level as low as a
+  // pallet's deck is the empty pallet (stereo cameras and coarse pitches merge its boards and gaps
+  // into strips or one slab that boxes tile). Where the pallet's height is known, it alone decides.
   const bool ok = layout.status == DetectionStatus::kOk;
   std::optional<LevelVerdict> slots = ok ? boxes_over_slots(layout, layer) : std::nullopt;
   std::optional<LevelVerdict> unlaid = ok ? pieces_without_boxes(layout, layer, formats) : std::nullopt;
   std::optional<LevelVerdict> holes = ok ? boxes_over_holes(cloud, layout, layer) : std::nullopt;
   std::optional<LevelVerdict> cut = ok ? pieces_cut_by_image(layer, formats) : std::nullopt;
-  if (!ok || layout.ambiguous || slots || unlaid || holes || cut)
+  if (!above_known_deck && (!ok || layout.ambiguous || slots || unlaid || holes || cut))
     if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity, T_base_camera))
       return deck;
   if (slots) return slots;

@@ -117,14 +117,18 @@ std::optional<LevelVerdict> boxes_over_holes(const OrganizedCloud& cloud, const 
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);
 
 /// After the layout: deck_above_floor when the layout failed or is flagged, or a box covers a slot
-/// or a hole, or a piece of the layer holds no box; then those flags; else slip_sheet,
-/// formats_undecided, mix_by_outline, seams_across_boxes, undersized_boxes, uncertain_positions,
-/// turned_unseen_boxes, overlapping_boxes (`refine`), search_unfinished.
+/// or a hole, or a piece of the layer holds no box or the image's edge cuts one off; then those
+/// flags; else slip_sheet, pieces_cut_by_image, formats_undecided, mix_by_outline,
+/// seams_across_boxes, undersized_boxes, uncertain_positions, turned_unseen_boxes,
+/// overlapping_boxes (`refine`), search_unfinished. `above_known_deck`: the pallet's height and
+/// the calibration put the level above the pallet's deck (empty_level() found it no deck), so no
+/// floor seen below it makes it one: the level seen lowest may be a lower layer of cartons.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
                                                const PlaneParams& validity, const RefineParams& refine,
-                                               const std::optional<Eigen::Isometry3d>& T_base_camera);
+                                               const std::optional<Eigen::Isometry3d>& T_base_camera,
+                                               bool above_known_deck);
 
 /// Fills height_above_pallet_m and layers_remaining; flags the result (ambiguous, with a reason)
 /// when the height is not a whole number of box heights.

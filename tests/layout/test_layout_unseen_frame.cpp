@@ -1,6 +1,8 @@
 // detect() on a bundled frame whose depth is made to end across the layer (as beyond a sensor's
 // range): boxes the cut leaves mostly seen are completed at their true poses and flagged
-// partly_unseen; the same cut with the surface seen lower beyond it completes nothing.
+// partly_unseen; the same cut with the surface seen lower beyond it completes nothing. Bundled
+// cell frames whose view ends across the load: a sheet, and a layer whose lower neighbour fills
+// the rest of the view.
 #include <cmath>
 #include <cstdlib>
 #include <string>
@@ -205,4 +207,37 @@ TEST_CASE("a seamless layer the image's edge cuts is not taken for cartons") {
   REQUIRE_FALSE(d.outline_unobserved);  // the rule for an outline cut where the depth ends is not what holds
   CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
   CHECK_THAT(d.ambiguity_reason, Catch::Contains("a slip sheet cannot be ruled out"));
+}
+
+// Frame 57 of `palletctl simulate --out H2 -n 300 --pattern all --profile all --scene all --cell
+// --partial-view --height-min 0.8 --oversize-max 0.04 --corner-radius 3:8 --gap-max 12 --fill
+// 0.3:1 --removal all --tilt-max 30 --seed 91012` (its region of interest and pallet height
+// below): nine 300 x 200 on xtion 0.8 m above them, the layer cut by the image's edges, the level
+// below it filling the rest of the view. The layout came out in doubt, and the level seen lowest,
+// 180 mm down, was taken for the floor: "an empty pallet's deck", with nine cartons on it. The
+// pallet's height puts the level 0.36 m above the deck: it is no deck, whatever is seen below.
+TEST_CASE("a level the pallet's height puts above the deck is never called empty by what is seen below") {
+  const std::string stem =
+      std::string(PALLETD_TEST_DATA_DIR) + "/flags/brick_300x200_close_over_lower_layer_xtion";
+  const Expected<Frame> frame = read_frame(stem);
+  REQUIRE(frame);
+  DetectionParams params;
+  RegionOfInterest roi;
+  roi.frame = RegionOfInterest::Frame::kBase;
+  roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.094);
+  roi.max_m = Eigen::Vector3d(0.7, 0.5, 0.804);
+  params.roi = roi;
+  const std::vector<BoxFormat> formats = {{0.3, 0.2, "300x200"}};
+  const Detection unknown_height = detect(*frame, formats, params);
+  CAPTURE(to_string(unknown_height.status), unknown_height.message);
+  REQUIRE(unknown_height.status ==
+          DetectionStatus::kEmpty);  // the floor below decides (the scene tests what it means to)
+
+  params.pallet.top_z_m = 0.144;
+  const Detection d = detect(*frame, formats, params);
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
+  CHECK(d.status != DetectionStatus::kEmpty);
+  REQUIRE(d.height_above_pallet_m);
+  CHECK(*d.height_above_pallet_m > 0.3);
+  CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
 }
