@@ -20,6 +20,10 @@ using level_detail::points_mm;
 /// smallest box's top, is a carton the camera sees only part of (smaller ones are specks of depth
 /// at the layer's height along the edge).
 constexpr double kCutPieceShare = 0.1;
+/// A layout whose boxes show seams along at least this share of the sides where they meet is a
+/// layer of cartons, not a pallet's deck: a deck's gaps are slots through the level, and a layout
+/// laid over its boards meets them only by chance (boxes over empty decks: at most 0.36).
+constexpr double kCartonSeamShare = 0.5;
 /// A layout is "seamless" when its interior sides show a seam along less than this share.
 constexpr double kSeamlessShare = 0.1;
 /// The groove between two cartons (their rounded top edges, 3 mm radius and more, plus the gap)
@@ -357,13 +361,15 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   // A confident layout stands; a failed or flagged one, or one with boxes over slots or holes or
   // pieces of the layer without boxes or cut off by the image's edge, on a level as low as a
   // pallet's deck is the empty pallet (stereo cameras and coarse pitches merge its boards and gaps
-  // into strips or one slab that boxes tile). Where the pallet's height is known, it alone decides.
+  // into strips or one slab that boxes tile). Where the pallet's height is known, it alone decides;
+  // boxes whose seams show where they meet are cartons.
   const bool ok = layout.status == DetectionStatus::kOk;
   std::optional<LevelVerdict> slots = ok ? boxes_over_slots(layout, layer) : std::nullopt;
   std::optional<LevelVerdict> unlaid = ok ? pieces_without_boxes(layout, layer, formats) : std::nullopt;
   std::optional<LevelVerdict> holes = ok ? boxes_over_holes(cloud, layout, layer) : std::nullopt;
   std::optional<LevelVerdict> cut = ok ? pieces_cut_by_image(layer, formats) : std::nullopt;
-  if (!above_known_deck && (!ok || layout.ambiguous || slots || unlaid || holes || cut))
+  const bool carton_seams = ok && layout.interior_seams.seen_share() >= kCartonSeamShare;
+  if (!above_known_deck && !carton_seams && (!ok || layout.ambiguous || slots || unlaid || holes || cut))
     if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity, T_base_camera))
       return deck;
   if (slots) return slots;
