@@ -34,6 +34,10 @@ constexpr double kBoardLengthShare = 0.1;
 /// No carton layer on a pallet stands this little above the floor (a pallet is 0.14-0.16 m high,
 /// a carton 0.1 m or more): the deck of an empty pallet [m].
 constexpr double kMaxDeckAboveFloor_m = 0.2;
+/// ... and at least this high: pallets stand 0.1 m and more. A lowest level in view closer below
+/// the level is no floor under a deck: the level's own noise (a camera beyond its range), or a
+/// view that holds no floor [m].
+constexpr double kMinDeckAboveFloor_m = 0.08;
 /// The floor: the lowest level below the layer holding at least this share of the sampled points.
 constexpr double kMinFloorShare = 0.1;
 /// A slot in the layer (a hole at least this many times longer than wide: the gap between two
@@ -283,7 +287,7 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
     if (bins[static_cast<std::size_t>(b)] + bins[static_cast<std::size_t>(b) + 1] < std::max(floor_count, 50))
       continue;
     const double floor_below_m = (b + 1) * kBin_m;  // the floor: the lowest level with enough points
-    if (floor_below_m >= kMaxDeckAboveFloor_m) return std::nullopt;
+    if (floor_below_m >= kMaxDeckAboveFloor_m || floor_below_m < kMinDeckAboveFloor_m) return std::nullopt;
     return LevelVerdict{DetectionStatus::kEmpty,
                         "the top level stands " + mm(floor_below_m) +
                             " above the floor and no box of the recipe fits it: an empty pallet's deck"};

@@ -28,7 +28,7 @@ std::optional<double> layer_base_z_m(const LayerResult& layer,
 std::optional<LevelVerdict> empty_level(const Frame& frame, const LayerResult& layer,
                                         const std::vector<BoxFormat>& formats, const DetectionParams& params);
 
-/// After a layout failed: the top level stands less than 0.2 m above the lowest large level in
+/// After a layout failed: the top level stands 0.08-0.2 m above the lowest large level in
 /// view (the floor, at least a tenth of the sampled points), lower than any carton layer on a
 /// pallet, so it is an empty pallet's deck (kEmpty). Heights along the base's up axis from the
 /// level's centre when `T_base_camera` is known, else from the layer's plane.

@@ -238,35 +238,6 @@ TEST_CASE(
   }
 }
 
-// Frame 93 of set O1, made in the session of 2026-12-05 beyond the targets' envelope (`palletctl
-// simulate --pattern all --profile all --scene all --seed 90998 --cell`, noise x 2.5, tilts to 45
-// degrees, gaps to 40 mm, partial views; its other options are not on record; region of interest
-// and pallet height below): one 600 x 400 on xtion, 0.76 m above the pallet's deck, the layout
-// failed, and noise 30 mm below the level was taken for a floor: "an empty pallet's deck". One
-// carton has no seams to show; the pallet's height alone tells it is no deck.
-TEST_CASE("a level the pallet's height puts above the deck is never called empty by what is seen below") {
-  const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/flags/one_600x400_far_above_deck_xtion";
-  const Expected<Frame> frame = read_frame(stem);
-  REQUIRE(frame);
-  DetectionParams params;
-  RegionOfInterest roi;
-  roi.frame = RegionOfInterest::Frame::kBase;
-  roi.min_m = Eigen::Vector3d(-0.7, -0.6, 0.094);
-  roi.max_m = Eigen::Vector3d(0.7, 0.6, 1.444);
-  params.roi = roi;
-  const std::vector<BoxFormat> formats = {{0.6, 0.4, "600x400"}, {0.4, 0.3, "400x300"}};
-  const Detection unknown_height = detect(*frame, formats, params);
-  CAPTURE(to_string(unknown_height.status), unknown_height.message);
-  REQUIRE(unknown_height.status ==
-          DetectionStatus::kEmpty);  // the floor below decides (the scene tests what it means to)
-
-  params.pallet.top_z_m = 0.144;
-  const Detection d = detect(*frame, formats, params);
-  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
-  CHECK(d.status != DetectionStatus::kEmpty);
-  CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
-}
-
 // Frame 23 of set O1, made in the session of 2026-12-05 beyond the targets' envelope (`palletctl
 // simulate --pattern all --profile all --scene all --seed 90998`, noise x 2.5, tilts to 45
 // degrees, gaps to 40 mm, partial views; its other options are not on record): eight 300 x 200 in
