@@ -185,6 +185,22 @@ TEST_CASE("surroundings built once for the longest size complete the boxes each 
         own.completed_unseen);
 }
 
+namespace {
+
+/// Detection parameters with the region of interest `palletctl simulate --cell` suggests for
+/// its frames (base frame, up to `top_m`; the file STEM.roi.yaml beside each frame).
+DetectionParams in_simulated_cell(double top_m) {
+  DetectionParams params;
+  RegionOfInterest roi;
+  roi.frame = RegionOfInterest::Frame::kBase;
+  roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.094);
+  roi.max_m = Eigen::Vector3d(0.7, 0.5, top_m);
+  params.roi = roi;
+  return params;
+}
+
+}  // namespace
+
 // Frame 17 of `palletctl simulate --out H1 -n 200 --pattern all --profile all --scene all --cell
 // --partial-view --height-min 0.8 --oversize-max 0.04 --corner-radius 3:8 --gap-max 12 --fill
 // 0.3:1 --removal all --tilt-max 30 --seed 91011` (its region of interest below): a slip sheet
@@ -192,16 +208,10 @@ TEST_CASE("surroundings built once for the longest size complete the boxes each 
 // hang and show few mixed pixels, so this frame does not show narrow seams; the outline cut by
 // the image's edge is no rectangle, and the seamless layer was taken for four cartons, unflagged.
 TEST_CASE("a seamless layer the image's edge cuts is not taken for cartons") {
-  const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/flags/slip_sheet_cut_by_image_edge_helios2";
-  const Expected<Frame> frame = read_frame(stem);
+  const Expected<Frame> frame =
+      read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/flags/slip_sheet_cut_by_image_edge_helios2");
   REQUIRE(frame);
-  DetectionParams params;
-  RegionOfInterest roi;
-  roi.frame = RegionOfInterest::Frame::kBase;
-  roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.094);
-  roi.max_m = Eigen::Vector3d(0.7, 0.5, 1.194);
-  params.roi = roi;
-  const Detection d = detect(*frame, {{0.6, 0.4, "600x400"}}, params);
+  const Detection d = detect(*frame, {{0.6, 0.4, "600x400"}}, in_simulated_cell(1.194));
   CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
   REQUIRE(d.clipped_by_image_border);
   REQUIRE_FALSE(d.outline_unobserved);  // the rule for an outline cut where the depth ends is not what holds
@@ -218,16 +228,10 @@ TEST_CASE("a seamless layer the image's edge cuts is not taken for cartons") {
 // pallet's height puts the level 0.36 m above the deck, and the boxes show their seams: cartons.
 TEST_CASE(
     "a close view of cartons over the next layer is never an empty pallet, with a pallet height or without") {
-  const std::string stem =
-      std::string(PALLETD_TEST_DATA_DIR) + "/flags/brick_300x200_close_over_lower_layer_xtion";
-  const Expected<Frame> frame = read_frame(stem);
+  const Expected<Frame> frame =
+      read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/flags/brick_300x200_close_over_lower_layer_xtion");
   REQUIRE(frame);
-  DetectionParams params;
-  RegionOfInterest roi;
-  roi.frame = RegionOfInterest::Frame::kBase;
-  roi.min_m = Eigen::Vector3d(-0.7, -0.5, 0.094);
-  roi.max_m = Eigen::Vector3d(0.7, 0.5, 0.804);
-  params.roi = roi;
+  DetectionParams params = in_simulated_cell(0.804);
   const std::vector<BoxFormat> formats = {{0.3, 0.2, "300x200"}};
   for (const bool height_known : {false, true}) {
     if (height_known) params.pallet.top_z_m = 0.144;
