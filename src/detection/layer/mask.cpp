@@ -88,12 +88,14 @@ LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, const Band
 
 namespace {
 
-/// Whether a component's bounding box (a row of cv::connectedComponentsWithStats) reaches the
-/// image's first or last row or column.
-bool touches_frame(const cv::Mat& stat, cv::Size image) {
-  const int x = stat.at<int>(cv::CC_STAT_LEFT), y = stat.at<int>(cv::CC_STAT_TOP);
-  return x == 0 || y == 0 || x + stat.at<int>(cv::CC_STAT_WIDTH) == image.width ||
-         y + stat.at<int>(cv::CC_STAT_HEIGHT) == image.height;
+/// Per label of `labels` (CV_32S, n_labels): 1 where the component has a pixel in the image's
+/// first or last row or column.
+std::vector<char> labels_at_frame(const cv::Mat& labels, int n_labels) {
+  std::vector<char> at(static_cast<std::size_t>(std::max(n_labels, 1)), 0);
+  auto mark = [&](int u, int v) { at[static_cast<std::size_t>(labels.at<std::int32_t>(v, u))] = 1; };
+  for (int u = 0; u < labels.cols; ++u) mark(u, 0), mark(u, labels.rows - 1);
+  for (int v = 0; v < labels.rows; ++v) mark(0, v), mark(labels.cols - 1, v);
+  return at;
 }
 
 }  // namespace
@@ -107,9 +109,10 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
   std::vector<cv::Vec4i> hierarchy;
   cv::findContours(mask.clone(), contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
 
-  cv::Mat labels, stats, centroids;
-  const int n_labels = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  cv::Mat labels;
+  const int n_labels = cv::connectedComponents(mask, labels, 8, CV_32S);
   std::vector<double> label_area(static_cast<std::size_t>(std::max(n_labels, 1)), 0.0);
+  const std::vector<char> at_frame = labels_at_frame(labels, n_labels);
   const double dist = std::max(plane.d, 1e-6);
   for (int v = 0; v < mask.rows; ++v) {
     const auto* lab = labels.ptr<std::int32_t>(v);
@@ -152,7 +155,7 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
       ++out.dropped;
       if (label > 0) {
         label_dropped[static_cast<std::size_t>(label)] = 1;
-        if (touches_frame(stats.row(label), mask.size()))
+        if (at_frame[static_cast<std::size_t>(label)] != 0)
           out.largest_cut_m2 = std::max(out.largest_cut_m2, area);
       }
       continue;
