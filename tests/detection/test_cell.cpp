@@ -1,10 +1,12 @@
 // detect() in a cell: a cabinet taller than the load beside the pallet, the region of interest
 // that leaves it out, and the calibrated up direction that keeps only level planes.
+#include <cmath>
+#include <utility>
+
 #include <catch2/catch.hpp>
 
-#include <cmath>
-
 #include "palletd/detection/detection.hpp"
+
 #include "synthetic_scene.hpp"
 
 using namespace palletd;
@@ -175,27 +177,44 @@ TEST_CASE("cell: with camera_to_base only a level plane is a layer") {
   CHECK(detect(f.frame, kFormats, params).status == DetectionStatus::kOk);
 }
 
+namespace {
+
+/// A 0.6 x 0.4 slab (top at top_z_m, standing on bottom_z_m) and a recipe by which it is one carton
+/// or two side by side (no seam tells: the layout is in doubt).
+const std::vector<BoxFormat> kSlabFormats = {{0.6, 0.4, "600x400"}, {0.4, 0.3, "400x300"}};
+
+SynthBox slab(double bottom_z_m, double top_z_m) {
+  SynthBox b;
+  b.long_m = 0.6;
+  b.short_m = 0.4;
+  b.bottom_z_m = bottom_z_m;
+  b.top_z_m = top_z_m;
+  return b;
+}
+
+/// The scene's last box is the top level, seen from 1.5 m, tilted 5 deg, calibrated.
+SynthFrame slab_frame(std::vector<SynthBox> boxes) {
+  SynthScene scene;
+  scene.boxes = std::move(boxes);
+  scene.top = {scene.boxes.size() - 1};
+  scene.top_z_m = scene.boxes.back().top_z_m;
+  SynthCamera cam = camera_looking_at(scene.top_z_m, 5.0, 30.0);
+  cam.distance_m = 1.5;
+  SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
+  f.frame.T_base_camera = f.T_world_camera;
+  return f;
+}
+
+}  // namespace
+
 TEST_CASE("cell: a level too close above the lowest level in view is no empty pallet's deck") {
-  // A 0.6 x 0.4 slab on the floor, with a recipe by which it is one carton or two side by side
-  // (no seam tells: the layout is in doubt). 0.15 m high it stands like a pallet's deck above the
-  // floor: empty. 0.06 m high, no pallet is that low: the lowest level in view is no floor under a
-  // deck (a camera's noise beyond its range, or a view without the floor), and the level is not
-  // called empty.
-  const std::vector<BoxFormat> formats = {{0.6, 0.4, "600x400"}, {0.4, 0.3, "400x300"}};
+  // The slab on the floor. 0.15 m high it stands like a pallet's deck above the floor: empty.
+  // 0.06 m high, no pallet is that low: the lowest level in view is no floor under a deck (a
+  // camera's noise beyond its range, or a view without the floor), and the level is not called
+  // empty.
   for (const double height_m : {0.15, 0.06}) {
-    SynthScene scene;
-    SynthBox slab;
-    slab.long_m = 0.6;
-    slab.short_m = 0.4;
-    slab.top_z_m = height_m;
-    scene.boxes.push_back(slab);
-    scene.top = {0};
-    scene.top_z_m = height_m;
-    SynthCamera cam = camera_looking_at(height_m, 5.0, 30.0);
-    cam.distance_m = 1.5;
-    SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
-    f.frame.T_base_camera = f.T_world_camera;
-    const Detection d = detect(f.frame, formats, DetectionParams{});
+    const SynthFrame f = slab_frame({slab(0.0, height_m)});
+    const Detection d = detect(f.frame, kSlabFormats, DetectionParams{});
     CAPTURE(height_m, to_string(d.status), d.message, d.ambiguity_reason);
     CHECK((d.status == DetectionStatus::kEmpty) == (height_m > 0.1));
     CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
@@ -203,36 +222,22 @@ TEST_CASE("cell: a level too close above the lowest level in view is no empty pa
 }
 
 TEST_CASE("cell: the pallet's height decides the deck, not the level seen lowest") {
-  // One 0.6 x 0.4 slab on a wide level 0.15 m lower that fills the view (the next layer of
-  // cartons seen from close by), with a recipe by which it is one carton or two side by side (the
-  // layout is in doubt). Without a pallet height the wide level passes for the floor under a deck:
+  // The slab on a wide level 0.15 m lower that fills the view (the next layer of cartons seen
+  // from close by). Without a pallet height the wide level passes for the floor under a deck:
   // empty. With the pallet's height the slab stands far above the deck: never empty.
-  const std::vector<BoxFormat> formats = {{0.6, 0.4, "600x400"}, {0.4, 0.3, "400x300"}};
-  SynthScene scene;
   SynthBox lower;
   lower.long_m = 3.0;
   lower.short_m = 3.0;
   lower.top_z_m = 0.85;
-  SynthBox slab;
-  slab.long_m = 0.6;
-  slab.short_m = 0.4;
-  slab.bottom_z_m = 0.85;
-  slab.top_z_m = 1.0;
-  scene.boxes = {lower, slab};
-  scene.top = {1};
-  scene.top_z_m = 1.0;
-  SynthCamera cam = camera_looking_at(1.0, 5.0, 30.0);
-  cam.distance_m = 1.5;
-  SynthFrame f = render_synthetic(scene, cam, SynthNoise{});
-  f.frame.T_base_camera = f.T_world_camera;
+  const SynthFrame f = slab_frame({lower, slab(0.85, 1.0)});
   DetectionParams params;
-  const Detection unknown_height = detect(f.frame, formats, params);
+  const Detection unknown_height = detect(f.frame, kSlabFormats, params);
   CAPTURE(to_string(unknown_height.status), unknown_height.message);
   REQUIRE(unknown_height.status ==
           DetectionStatus::kEmpty);  // the level below decides (the scene tests what it means to)
 
   params.pallet.top_z_m = 0.144;
-  const Detection d = detect(f.frame, formats, params);
+  const Detection d = detect(f.frame, kSlabFormats, params);
   CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
   CHECK(d.status != DetectionStatus::kEmpty);
   CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
