@@ -5,18 +5,6 @@
 
 namespace palletd {
 
-namespace {
-
-/// Below the region (base frame: lower than min_m.z; camera frame: further than max_m.z): the
-/// floor, a lower level. Such points stay, wherever they lie, because they show where the layer
-/// ends: a tilted camera sees the floor beyond a layer's far edge well outside the footprint, and
-/// without it that edge would look like one where the depth ends.
-bool below_region(const RegionOfInterest& roi, const Eigen::Vector3d& q) {
-  return roi.frame == RegionOfInterest::Frame::kBase ? q.z() < roi.min_m.z() : q.z() > roi.max_m.z();
-}
-
-}  // namespace
-
 std::string apply_region_of_interest(const RegionOfInterest& roi, const std::optional<Eigen::Isometry3d>& T_base_camera,
                                      OrganizedCloud& cloud) {
   const bool in_base = roi.frame == RegionOfInterest::Frame::kBase;
@@ -25,12 +13,22 @@ std::string apply_region_of_interest(const RegionOfInterest& roi, const std::opt
            "configuration or the frame's JSON)";
   }
   const Eigen::Isometry3d T_roi_camera = in_base ? *T_base_camera : Eigen::Isometry3d::Identity();
+  const Eigen::Matrix3d R = T_roi_camera.linear();
+  const Eigen::Vector3d t = T_roi_camera.translation();
+  // One row of T_roi_camera applied to p: the coordinate `row` of the point in the region's frame.
+  auto coordinate = [&](int row, const Eigen::Vector3f& p) {
+    return R(row, 0) * p.x() + R(row, 1) * p.y() + R(row, 2) * p.z() + t(row);
+  };
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (Eigen::Vector3f& p : cloud.points) {
     if (!p.allFinite()) continue;
-    const Eigen::Vector3d q = T_roi_camera * p.cast<double>();
-    if (roi.contains(q) || below_region(roi, q)) continue;
-    p = Eigen::Vector3f(nan, nan, nan);
+    // Below the region (base frame: lower than min_m.z; camera frame: further than max_m.z): the
+    // floor, a lower level. Such points stay wherever they lie, because they show where the layer
+    // ends: a tilted camera sees the floor beyond a layer's far edge well outside the footprint.
+    const double z = coordinate(2, p);
+    if (in_base ? z < roi.min_m.z() : z > roi.max_m.z()) continue;
+    const Eigen::Vector3d q(coordinate(0, p), coordinate(1, p), z);
+    if (!roi.contains(q)) p = Eigen::Vector3f(nan, nan, nan);
   }
   return {};
 }

@@ -1,11 +1,14 @@
 // Cell rasters of the layout stage: summed-area tables computed into the caller's vector
 // (integral_into) and read bilinearly (sat_sum_bilinear), as the seam table, the tape evidence
-// and the area oracle read them; square erosion, dilation and opening of binary rasters.
+// and the area oracle read them; square erosion, dilation and opening of binary rasters; the image
+// rectangle the per-pixel passes over a layer's raster visit.
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <utility>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <opencv2/core.hpp>
 
@@ -121,4 +124,84 @@ TEST_CASE("a bilinear read of a summed-area table takes the covered share of eac
   // Half of the first cell across, the whole of it down: 2; a quarter of each cell: 3.
   CHECK(sat_sum_bilinear(sat, 2, 2, 0.5, 0.0, 1.0, 1.0) == Approx(2.0));
   CHECK(sat_sum_bilinear(sat, 2, 2, 0.5, 0.5, 1.5, 1.5) == Approx(0.25 * 4.0 + 0.25 * 8.0));
+}
+
+namespace {
+
+/// A layer on a plane turned tilt_deg about the camera's x axis, d_m from the camera, whose
+/// outline is a rectangle of half sides half_x_m, half_y_m around where the optical axis meets
+/// the plane; the layer frame as stage 2 builds it (z the plane's normal toward the camera).
+palletd::LayerResult tilted_layer(double tilt_deg, double d_m, double half_x_m, double half_y_m) {
+  palletd::LayerResult layer;
+  layer.status = palletd::DetectionStatus::kOk;
+  const double t = tilt_deg * M_PI / 180.0;
+  const Eigen::Vector3d n(0.0, std::sin(t), -std::cos(t));
+  layer.plane_camera.normal = n;
+  layer.plane_camera.d = d_m;
+  Eigen::Vector3d x = Eigen::Vector3d::UnitX() - n * n.x();
+  x.normalize();
+  layer.T_camera_layer.linear().col(0) = x;
+  layer.T_camera_layer.linear().col(1) = n.cross(x);
+  layer.T_camera_layer.linear().col(2) = n;
+  layer.T_camera_layer.translation() = -d_m * n;  // the camera's foot point
+  const Eigen::Vector3d on_axis(0.0, 0.0, -d_m / n.z());
+  const Eigen::Vector2d c = (layer.T_camera_layer.inverse() * on_axis).head<2>();
+  palletd::PolygonWithHoles rect;
+  rect.outer = {c + Eigen::Vector2d(-half_x_m, -half_y_m), c + Eigen::Vector2d(half_x_m, -half_y_m),
+                c + Eigen::Vector2d(half_x_m, half_y_m), c + Eigen::Vector2d(-half_x_m, half_y_m)};
+  layer.polygons.push_back(rect);
+  return layer;
+}
+
+palletd::Intrinsics vga() {
+  palletd::Intrinsics in;
+  in.width = 640;
+  in.height = 480;
+  in.fx = 520.0;
+  in.fy = 500.0;
+  in.cx = 319.5;
+  in.cy = 239.5;
+  return in;
+}
+
+/// Pixels whose ray meets the raster, and those of them outside `w`.
+std::pair<int, int> pixels_on(const LayerRasterGeometry& geo, const palletd::Intrinsics& in,
+                              const PixelWindow& w) {
+  int on = 0, outside = 0;
+  for (int v = 0; v < in.height; ++v) {
+    for (int u = 0; u < in.width; ++u) {
+      double fx = 0.0, fy = 0.0;
+      if (!geo.cell_of(u, v, &fx, &fy)) continue;
+      ++on;
+      if (u < w.u0 || u >= w.u1 || v < w.v0 || v >= w.v1) ++outside;
+    }
+  }
+  return {on, outside};
+}
+
+}  // namespace
+
+TEST_CASE("the pixels a raster's per-pixel passes visit hold every pixel whose ray meets it",
+          "[layout][seams]") {
+  const palletd::Intrinsics in = vga();
+  for (const double tilt_deg : {0.0, 12.0, 30.0}) {
+    const palletd::LayerResult layer = tilted_layer(tilt_deg, 2.0, 0.4, 0.3);
+    const auto geo = layer_raster_geometry(in, layer, 0.004, 0.02);
+    REQUIRE(geo);
+    const PixelWindow w = pixels_on_raster(*geo, in);
+    const auto [on, outside] = pixels_on(*geo, in, w);
+    CHECK(on > 10000);
+    CHECK(outside == 0);
+    // Tight: the window is the raster's image, a few pixels of margin around it, not the image.
+    CHECK((w.u1 - w.u0) * (w.v1 - w.v0) < 2 * on);
+    CHECK((w.u1 - w.u0) * (w.v1 - w.v0) < in.width * in.height / 2);
+  }
+  // A raster reaching behind the camera (a plane nearly along the view, an outline 20 m long):
+  // its corners' images say nothing, so the whole image is visited.
+  const palletd::LayerResult far = tilted_layer(70.0, 1.0, 0.4, 10.0);
+  const auto geo = layer_raster_geometry(in, far, 0.05, 0.02);
+  REQUIRE(geo);
+  const PixelWindow w = pixels_on_raster(*geo, in);
+  CHECK(pixels_on(*geo, in, w).second == 0);
+  CHECK((w.u0 == 0 && w.v0 == 0 && w.u1 == in.width && w.v1 == in.height));
 }

@@ -30,33 +30,43 @@ LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, const Band
   // (within twice the band; further off is a real surface, e.g. seen through a gap), not on the
   // image frame (they have too few neighbours to be filled).
   std::vector<int> candidates;
+  // Loop invariants as locals: the stores into the mask are byte stores, which the compiler must
+  // assume may change anything it would otherwise keep in registers.
   const Eigen::Vector3f n = plane.normal.cast<float>();
   const auto d = static_cast<float>(plane.d);
+  const BandTable local_band = band;
+  const PlaneParams local_validity = validity;
+  std::size_t raw_pixels = 0;
   for (int v = 0; v < h; ++v) {
     auto* row = raw.ptr<std::uint8_t>(v);
+    const Eigen::Vector3f* points = &cloud.at(0, v);
     const bool inner_row = v > 0 && v + 1 < h;
     for (int u = 0; u < w; ++u) {
-      const Eigen::Vector3f& p = cloud.at(u, v);
+      const Eigen::Vector3f& p = points[u];
       const bool candidate = inner_row && u > 0 && u + 1 < w;
-      if (!usable(p, validity)) {
+      if (!usable(p, local_validity)) {
         if (candidate) candidates.push_back(v * w + u);
         continue;
       }
       const float s = std::abs(n.dot(p) + d);
-      const float tol = band.at(p.z());
+      const float tol = local_band.at(p.z());
       if (s <= tol) {
         row[u] = 255;
-        ++out.raw_layer_pixels;
+        ++raw_pixels;
       } else if (s <= 2.0F * tol && candidate) {
         candidates.push_back(v * w + u);
       }
     }
   }
+  out.raw_layer_pixels = raw_pixels;
   // Dropouts and noise outliers (invalid, or within twice the band): such a pixel with at least 7
-  // of its 8 neighbours on the layer is layer. Two passes close pairs and small clusters; a one-pixel-wide line (6
-  // neighbours), i.e. a real gap, stays. Only the candidates (off the layer, fillable, inside
-  // the image frame: a few percent of the pixels) are visited; each pass decides on the mask
-  // as it was before the pass.
+  // of its 8 neighbours on the layer is layer. Two passes close pairs and small clusters; a one-pixel-wide
+  // line (6 neighbours), i.e. a real gap, stays. Only the candidates (off the layer, fillable, inside the
+  // image frame: a few percent of the pixels) are visited; each pass decides on the mask as it was before the
+  // pass. A pixel the first pass filled had all its neighbours but one on; two filled neighbours of one
+  // candidate are never neighbours of each other, so at most its four corners are filled: with
+  // fewer than three neighbours on before, it cannot reach seven in the second pass.
+  constexpr int kMinOnForLaterPass = 3;
   std::vector<int> fill;
   for (int pass = 0; pass < 2 && !candidates.empty(); ++pass) {
     fill.clear();
@@ -66,7 +76,8 @@ LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, const Band
       const int on = (c[-w - 1] != 0) + (c[-w] != 0) + (c[-w + 1] != 0) + (c[-1] != 0) + (c[1] != 0) +
                      (c[w - 1] != 0) + (c[w] != 0) + (c[w + 1] != 0);
       if (on >= 7) fill.push_back(i);
-      else candidates[keep++] = i;
+      else if (on >= kMinOnForLaterPass)
+        candidates[keep++] = i;
     }
     candidates.resize(keep);
     if (fill.empty()) break;
@@ -114,12 +125,15 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
   std::vector<double> label_area(static_cast<std::size_t>(std::max(n_labels, 1)), 0.0);
   const std::vector<char> at_frame = labels_at_frame(labels, n_labels);
   const double dist = std::max(plane.d, 1e-6);
+  std::vector<double> ray_x(static_cast<std::size_t>(mask.cols));  // per column
+  for (int u = 0; u < mask.cols; ++u)
+    ray_x[static_cast<std::size_t>(u)] = (static_cast<double>(u) - intrinsics.cx) / intrinsics.fx;
   for (int v = 0; v < mask.rows; ++v) {
     const auto* lab = labels.ptr<std::int32_t>(v);
     const double ry = (static_cast<double>(v) - intrinsics.cy) / intrinsics.fy;
     for (int u = 0; u < mask.cols; ++u) {
       if (lab[u] <= 0) continue;
-      const double rx = (static_cast<double>(u) - intrinsics.cx) / intrinsics.fx;
+      const double rx = ray_x[static_cast<std::size_t>(u)];
       const double denom = -(plane.normal.x() * rx + plane.normal.y() * ry + plane.normal.z());
       const double z = denom > 1e-9 ? dist / denom : 0.0;
       label_area[static_cast<std::size_t>(lab[u])] += pixel_area_m2(z, dist, intrinsics);

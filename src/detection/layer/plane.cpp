@@ -70,12 +70,18 @@ PlaneFit refit(const OrganizedCloud& cloud, const Plane& plane, const DepthNoise
   std::size_t n = 0;
   const Eigen::Vector3f normal = plane.normal.cast<float>();
   const auto d = static_cast<float>(plane.d);
+  // The band lies between min_band_m and kMaxBand: a point's own band decides only between them.
+  const auto band_lo = static_cast<float>(std::min(min_band_m, kMaxBand));
+  const auto band_hi = static_cast<float>(std::max(min_band_m, kMaxBand));
   for (int v = 0; v < cloud.height; v += step) {
     for (int u = 0; u < cloud.width; u += step) {
       const Eigen::Vector3f& p = cloud.at(u, v);
       if (!usable(p, params)) continue;
-      const auto band = static_cast<float>(std::clamp(band_scale * noise.sigma_at(p.z()), min_band_m, kMaxBand));
-      if (std::abs(normal.dot(p) + d) > band) continue;
+      const float r = std::abs(normal.dot(p) + d);
+      if (r > band_hi) continue;
+      if (r > band_lo &&
+          r > static_cast<float>(std::clamp(band_scale * noise.sigma_at(p.z()), min_band_m, kMaxBand)))
+        continue;
       const Eigen::Vector3d q = p.cast<double>();
       sum += q;
       sum_sq += q * q.transpose();

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <Eigen/Geometry>
 
@@ -49,6 +50,31 @@ std::optional<LayerRasterGeometry> layer_raster_geometry(const Intrinsics& in, c
   H.row(2) = plane.normal.transpose();
   g.H_cell_pixel = H * K_inv;
   return g;
+}
+
+PixelWindow pixels_on_raster(const LayerRasterGeometry& geo, const Intrinsics& in) {
+  const PixelWindow whole{0, 0, in.width, in.height};
+  // The raster is a rectangle on the plane. With its four corners in front of the camera, its
+  // image is the convex quadrilateral of the corners' images, inside their bounding box.
+  const Eigen::Matrix3d pixel_cell = geo.H_cell_pixel.inverse();
+  double u_lo = 1e300, u_hi = -1e300, v_lo = 1e300, v_hi = -1e300;
+  for (const auto& [x, y] : {std::pair{0, 0}, {geo.width, 0}, {0, geo.height}, {geo.width, geo.height}}) {
+    const Eigen::Vector3d h = pixel_cell * Eigen::Vector3d(x, y, 1.0);
+    const double u = h.x() / h.z(), v = h.y() / h.z();
+    if (!std::isfinite(u) || !std::isfinite(v)) return whole;
+    // The corner lies in front of the camera when the plane meets its pixel's ray ahead (cell_of).
+    const double den = geo.H_cell_pixel.row(2).dot(Eigen::Vector3d(u, v, 1.0));
+    if (!(-geo.plane_d * den > 0)) return whole;
+    u_lo = std::min(u_lo, u), u_hi = std::max(u_hi, u), v_lo = std::min(v_lo, v), v_hi = std::max(v_hi, v);
+  }
+  // A pixel of margin and more against the rounding of the corners' images.
+  constexpr double kMargin_px = 2.0;
+  auto clamped = [](double x, int hi) {
+    return static_cast<int>(std::clamp(x, 0.0, static_cast<double>(hi)));
+  };
+  return {clamped(std::floor(u_lo - kMargin_px), in.width), clamped(std::floor(v_lo - kMargin_px), in.height),
+          clamped(std::ceil(u_hi + kMargin_px) + 1.0, in.width),
+          clamped(std::ceil(v_hi + kMargin_px) + 1.0, in.height)};
 }
 
 namespace {

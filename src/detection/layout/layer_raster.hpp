@@ -35,6 +35,16 @@ struct LayerRasterGeometry {
   }
 };
 
+/// An image rectangle: columns [u0, u1), rows [v0, v1).
+struct PixelWindow {
+  int u0 = 0, v0 = 0, u1 = 0, v1 = 0;
+};
+
+/// The pixels whose ray can meet the raster (LayerRasterGeometry::cell_of true) all lie in this
+/// rectangle of the image (the whole image when a raster corner lies behind the camera). The
+/// per-pixel passes over a layer's raster visit only these.
+PixelWindow pixels_on_raster(const LayerRasterGeometry& geo, const Intrinsics& in);
+
 /// The raster over the bounding box of the layer's outer rings grown by margin_m on each side,
 /// with cells of cell_m; nullopt when the layer has no extent or the raster would exceed 4e6 cells.
 /// `layer` must be ok with polygons, `in` valid.

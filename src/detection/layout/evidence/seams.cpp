@@ -46,20 +46,23 @@ double median_abs_deviation(std::vector<double> v) {
 
 /// For every pixel: how much darker it is than both pixels r = 1 or 2 away on either side of it,
 /// across a line along the row, the column or a diagonal (the largest of the eight) [intensity
-/// counts]; 0 where it is not darker than both, and within two pixels of the image border. A gap
+/// counts]; 0 where it is not darker than both, within two pixels of the image border and outside
+/// `window` (the only pixels read). A gap
 /// between boxes is a dark line in the amplitude image (the gap returns less light than the tops
 /// on either side of it); a step (a label, print, tape, a box of another shade) is darker on one
 /// side only and gives nothing, where an edge detector answers both alike and draws seams along
 /// every label. Whole-image operations on 16-bit counts: the subtraction saturates at 0.
-cv::Mat dark_line_depths(const std::vector<std::uint16_t>& inten, int width, int height) {
+cv::Mat dark_line_depths(const std::vector<std::uint16_t>& inten, int width, int height,
+                         const layout_detail::PixelWindow& window) {
   constexpr int kAcross[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
   constexpr int kReach = 2;  // pixels
   cv::Mat depths = cv::Mat::zeros(height, width, CV_16U);
-  if (width <= 2 * kReach || height <= 2 * kReach) return depths;
+  const cv::Rect inner = cv::Rect(kReach, kReach, width - 2 * kReach, height - 2 * kReach) &
+                         cv::Rect(window.u0, window.v0, window.u1 - window.u0, window.v1 - window.v0);
+  if (inner.empty()) return depths;
   const cv::Mat image(height, width, CV_16U, const_cast<std::uint16_t*>(inten.data()));  // read only
-  const cv::Size inner(width - 2 * kReach, height - 2 * kReach);
-  const auto at = [&](int dx, int dy) { return image(cv::Rect(cv::Point(kReach + dx, kReach + dy), inner)); };
-  cv::Mat best = depths(cv::Rect(cv::Point(kReach, kReach), inner));
+  const auto at = [&](int dx, int dy) { return image(inner + cv::Point(dx, dy)); };
+  cv::Mat best = depths(inner);
   cv::Mat darker;
   for (const auto& d : kAcross) {
     for (int r = 1; r <= kReach; ++r) {
@@ -130,10 +133,10 @@ std::vector<std::uint8_t> inside_cells(const LayerResult& layer, const SeamEvide
 /// The raster cell of each pixel (row-major), where its viewing ray meets the plane; -1 for a
 /// pixel whose ray misses the raster.
 std::vector<int> pixel_cells(const layout_detail::LayerRasterGeometry& geo, const Intrinsics& in,
-                             std::size_t pixel_count) {
+                             const layout_detail::PixelWindow& window, std::size_t pixel_count) {
   std::vector<int> cell_of(pixel_count, -1);
-  for (int v = 0; v < in.height; ++v) {
-    for (int u = 0; u < in.width; ++u) {
+  for (int v = window.v0; v < window.v1; ++v) {
+    for (int u = window.u0; u < window.u1; ++u) {
       double fx = 0.0, fy = 0.0;
       if (!geo.cell_of(u, v, &fx, &fy)) continue;
       const int cx = static_cast<int>(fx);
@@ -348,14 +351,16 @@ SeamEvidence build_seam_evidence(const Frame& frame, const OrganizedCloud& cloud
   const std::vector<std::uint8_t> mask_cells = inside_cells(layer, ev);
 
   // Pass 1: which pixels fall inside the layer, and the noise of depth and intensity there.
-  const std::vector<int> cell_of = pixel_cells(*geo, in, frame.pixel_count());
+  const layout_detail::PixelWindow window = layout_detail::pixels_on_raster(*geo, in);
+  const std::vector<int> cell_of = pixel_cells(*geo, in, window, frame.pixel_count());
   ev.depth_threshold_m = seam_depth_step_m(cloud, plane, cell_of, mask_cells, layer, params);
   const double intensity_sigma = intensity_noise(frame, cell_of, mask_cells, params);
 
   // Pass 2: each pixel's seam-likeness (depth below the plane, missing depth, a dark line in the
   // intensity image), averaged per cell.
   PixelScoring scoring{frame, cloud, plane, params, ev.depth_threshold_m, intensity_sigma, {}};
-  if (intensity_sigma > 0) scoring.dark_lines = dark_line_depths(frame.intensity, in.width, in.height);
+  if (intensity_sigma > 0)
+    scoring.dark_lines = dark_line_depths(frame.intensity, in.width, in.height, window);
   CellSums sums = sum_cells(scoring, cell_of, mask_cells, ev.width, ev.height);
   cell_means(sums, mask_cells, ev);
   return ev;

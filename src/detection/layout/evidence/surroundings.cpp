@@ -52,8 +52,9 @@ LayerSurroundings build_layer_surroundings(const Frame& frame, const OrganizedCl
   const double band_m = std::max(0.015, layer.diagnostics.passthrough_tolerance_m);
   std::array<cv::Mat, 3> votes;
   for (auto& v : votes) v = cv::Mat::zeros(out.height, out.width, CV_32F);
-  for (int v = 0; v < in.height; ++v) {
-    for (int u = 0; u < in.width; ++u) {
+  const layout_detail::PixelWindow window = layout_detail::pixels_on_raster(*geo, in);
+  for (int v = window.v0; v < window.v1; ++v) {
+    for (int u = window.u0; u < window.u1; ++u) {
       double fx = 0.0, fy = 0.0;
       if (!geo->cell_of(u, v, &fx, &fy)) continue;
       const Eigen::Vector3f& p = cloud.at(u, v);
