@@ -109,6 +109,29 @@ std::vector<char> labels_at_frame(const cv::Mat& labels, int n_labels) {
   return at;
 }
 
+/// Per label of `labels` (CV_32S, n_labels): the area its pixels cover on the plane [m^2], each
+/// pixel's footprint where its ray meets the plane.
+std::vector<double> label_areas_m2(const cv::Mat& labels, int n_labels, const Plane& plane,
+                                   const Intrinsics& intrinsics) {
+  std::vector<double> area(static_cast<std::size_t>(std::max(n_labels, 1)), 0.0);
+  const double dist = std::max(plane.d, 1e-6);
+  std::vector<double> ray_x(static_cast<std::size_t>(labels.cols));  // per column
+  for (int u = 0; u < labels.cols; ++u)
+    ray_x[static_cast<std::size_t>(u)] = (static_cast<double>(u) - intrinsics.cx) / intrinsics.fx;
+  for (int v = 0; v < labels.rows; ++v) {
+    const auto* lab = labels.ptr<std::int32_t>(v);
+    const double ry = (static_cast<double>(v) - intrinsics.cy) / intrinsics.fy;
+    for (int u = 0; u < labels.cols; ++u) {
+      if (lab[u] <= 0) continue;
+      const double rx = ray_x[static_cast<std::size_t>(u)];
+      const double denom = -(plane.normal.x() * rx + plane.normal.y() * ry + plane.normal.z());
+      const double z = denom > 1e-9 ? dist / denom : 0.0;
+      area[static_cast<std::size_t>(lab[u])] += pixel_area_m2(z, dist, intrinsics);
+    }
+  }
+  return area;
+}
+
 }  // namespace
 
 Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud& cloud,
@@ -122,23 +145,8 @@ Components find_components(cv::Mat& mask, cv::Mat& border, const OrganizedCloud&
 
   cv::Mat labels;
   const int n_labels = cv::connectedComponents(mask, labels, 8, CV_32S);
-  std::vector<double> label_area(static_cast<std::size_t>(std::max(n_labels, 1)), 0.0);
+  const std::vector<double> label_area = label_areas_m2(labels, n_labels, plane, intrinsics);
   const std::vector<char> at_frame = labels_at_frame(labels, n_labels);
-  const double dist = std::max(plane.d, 1e-6);
-  std::vector<double> ray_x(static_cast<std::size_t>(mask.cols));  // per column
-  for (int u = 0; u < mask.cols; ++u)
-    ray_x[static_cast<std::size_t>(u)] = (static_cast<double>(u) - intrinsics.cx) / intrinsics.fx;
-  for (int v = 0; v < mask.rows; ++v) {
-    const auto* lab = labels.ptr<std::int32_t>(v);
-    const double ry = (static_cast<double>(v) - intrinsics.cy) / intrinsics.fy;
-    for (int u = 0; u < mask.cols; ++u) {
-      if (lab[u] <= 0) continue;
-      const double rx = ray_x[static_cast<std::size_t>(u)];
-      const double denom = -(plane.normal.x() * rx + plane.normal.y() * ry + plane.normal.z());
-      const double z = denom > 1e-9 ? dist / denom : 0.0;
-      label_area[static_cast<std::size_t>(lab[u])] += pixel_area_m2(z, dist, intrinsics);
-    }
-  }
 
   // Ring id and chain position per traced contour pixel (by pixel index; contours are a small
   // share of the image, so no image-sized tables).
