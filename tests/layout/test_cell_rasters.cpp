@@ -1,7 +1,8 @@
 // Cell rasters of the layout stage: summed-area tables computed into the caller's vector
 // (integral_into) and read bilinearly (sat_sum_bilinear), as the seam table, the tape evidence
 // and the area oracle read them; square erosion, dilation and opening of binary rasters; the image
-// rectangle the per-pixel passes over a layer's raster visit.
+// rectangle the per-pixel passes over a layer's raster visit; the best-first search's free runs
+// over its occupancy bits.
 #include <cmath>
 #include <cstdint>
 #include <random>
@@ -14,6 +15,7 @@
 
 #include "evidence/seam_raster.hpp"
 #include "layer_raster.hpp"
+#include "search/best_first_internal.hpp"
 
 using namespace palletd::layout_detail;
 
@@ -204,4 +206,41 @@ TEST_CASE("the pixels a raster's per-pixel passes visit hold every pixel whose r
   const PixelWindow w = pixels_on_raster(*geo, in);
   CHECK(pixels_on(*geo, in, w).second == 0);
   CHECK((w.u0 == 0 && w.v0 == 0 && w.u1 == in.width && w.v1 == in.height));
+}
+
+TEST_CASE("the search's free runs tell a placement's fit as its cells one by one do", "[layout][search]") {
+  using palletd::layout_detail::best_first::FreeRuns;
+  using palletd::layout_detail::best_first::Placement;
+  std::mt19937 rng(20261206);
+  for (const auto& [nx, ny] : {std::pair{7, 5}, std::pair{64, 3}, std::pair{70, 9}, std::pair{13, 40}}) {
+    const int cells = nx * ny;
+    for (int trial = 0; trial < 40; ++trial) {
+      // Occupancies from sparse to dense; unused bits of the last word left set as well.
+      std::vector<std::uint64_t> occ((static_cast<std::size_t>(cells) + 63) / 64 + 1, 0);
+      const double share = 0.05 + 0.9 * trial / 40.0;
+      for (auto& word : occ)
+        for (int b = 0; b < 64; ++b)
+          if (std::uniform_real_distribution<double>(0, 1)(rng) < share) word |= std::uint64_t{1} << b;
+      auto occupied = [&](int i, int j) {
+        return ((occ[static_cast<std::size_t>((j * nx + i) >> 6)] >> ((j * nx + i) & 63)) & 1U) != 0;
+      };
+      for (int cell = 0; cell < cells; ++cell) {
+        const int i = cell % nx, j = cell / nx;
+        int run = 0;
+        while (i + run < nx && !occupied(i + run, j)) ++run;
+        CHECK(palletd::layout_detail::best_first::free_bits_from(occ.data(), cell, nx - i) == run);
+        FreeRuns runs(occ.data(), cell, nx);
+        // Placements at the cell, short and tall by turns: rows read before are read again.
+        for (int i1 = i + 1; i1 <= nx; ++i1) {
+          for (int j1 = j + 1; j1 <= ny; j1 += 1 + (j1 % 3)) {
+            bool free = true;
+            for (int y = j; y < j1 && free; ++y)
+              for (int x = i; x < i1 && free; ++x) free = !occupied(x, y);
+            const Placement p{0, i1, j1, 0.0, 0.0};
+            CHECK(runs.fits(p) == free);
+          }
+        }
+      }
+    }
+  }
 }

@@ -3,6 +3,8 @@
 // (occupancy bits, canonical frontier keys, forced cells), search_best_first.cpp (best-first queue).
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <queue>
@@ -62,6 +64,54 @@ struct Node {
   bool complete;
 };
 
+/// Free cells (0 bits) of an occupancy from bit `start` on, at most `limit`.
+inline int free_bits_from(const std::uint64_t* occ, int start, int limit) {
+  int run = 0;
+  while (run < limit) {
+    const int pos = start + run;
+    const std::uint64_t rest = occ[pos >> 6] >> (pos & 63);
+    if (rest != 0) return std::min(limit, run + __builtin_ctzll(rest));
+    run += 64 - (pos & 63);
+  }
+  return limit;
+}
+
+/// The free cells rightwards from one cell's column in each row from the cell's row down, under
+/// one occupancy (bit per cell, row-major, nx cells a row): each row is read once, when a
+/// placement first reaches it, for all the placements tested at that cell.
+class FreeRuns {
+ public:
+  FreeRuns(const std::uint64_t* occ, int cell, int nx) : occ_(occ), i_(cell % nx), j_(cell / nx), nx_(nx) {}
+
+  /// Whether placement p at the cell covers only free cells: the least run over its rows reaches
+  /// its far side.
+  bool fits(const Placement& p) {
+    const int need = p.i1 - i_;
+    const auto rows = static_cast<std::size_t>(p.j1 - j_);
+    if (rows > least_.size()) {  // beyond the table (a grid has fewer rows): row by row
+      for (int row = j_; row < p.j1; ++row)
+        if (free_from(row * nx_ + i_, nx_ - i_) < need) return false;
+      return true;
+    }
+    for (; known_ < rows; ++known_) {
+      if (known_ > 0 && least_[known_ - 1] < need) return false;
+      const int run = free_from((j_ + static_cast<int>(known_)) * nx_ + i_, nx_ - i_);
+      least_[known_] = known_ == 0 ? run : std::min(least_[known_ - 1], run);
+    }
+    return least_[rows - 1] >= need;
+  }
+
+ private:
+  [[nodiscard]] int free_from(int start, int limit) const { return free_bits_from(occ_, start, limit); }
+
+  const std::uint64_t* occ_;
+  int i_, j_, nx_;
+  /// least_[k]: the least free run over rows j_ .. j_ + k, for k < known_ (a grid has fewer rows
+  /// than the table: each side's lines are capped).
+  std::array<int, 2 * kMaxLinesPerAxis> least_;
+  std::size_t known_ = 0;
+};
+
 struct QueueItem {
   std::int64_t bound_q;
   int cursor;
@@ -116,9 +166,7 @@ class BestFirstSearch {
   void fill_solution(ComponentSolution* sol);
 
   // Node state (search_state.cpp).
-  [[nodiscard]] bool range_free(const std::uint64_t* occ, int start, int len) const;
   static void set_range(std::uint64_t* occ, int start, int len);
-  [[nodiscard]] bool fits(const std::uint64_t* occ, int cell, const Placement& p) const;
   void advance(Node& n, std::uint64_t* occ) const;
   std::vector<FrameBox> boxes_of(int node) const;
   std::uint64_t* occ(std::size_t node) { return pool_.data() + node * words_; }
@@ -140,6 +188,9 @@ class BestFirstSearch {
   std::vector<double> cell_area_;
   std::vector<Shape> shapes_;
   std::vector<std::vector<Placement>> placements_;  ///< per cell
+  /// Per cell: the least end column of its placements (nx_ + 1 without any): no placement fits
+  /// where the cell's row is free for fewer columns than that.
+  std::vector<int> nearest_far_side_;
   double total_area_ = 0, min_box_area_ = 0, tol_ = 0;
   double min_placement_area_ = 0;  ///< least Area(box ∩ layer) of any placement [m^2]
   std::size_t words_ = 0;
@@ -151,6 +202,7 @@ class BestFirstSearch {
   double tie_margin_m2_ = 0;  ///< scores closer than this tie [m^2]
   double same_tol_m_ = 0;     ///< box centres closer than this are the same box [m]
   std::unordered_map<std::uint64_t, Dominance> frontier_;
+  std::vector<char> fitting_;  ///< expand(): which placements of the cell fit (scratch)
   std::priority_queue<QueueItem> queue_;
   int best_ = -1;       ///< the best complete layout (popped, or the incumbent), -1 = none yet
   int runner_ = -1;     ///< first kept alternative, -1 = none

@@ -123,12 +123,16 @@ bool BestFirstSearch::take_complete(int k, ComponentSolution* sol) {
 void BestFirstSearch::expand(const QueueItem& item, int cell) {
   const int k = static_cast<int>(item.node);
   const auto& list = placements_[static_cast<std::size_t>(cell)];
+  // Which placements fit, read before any child is made (a child may move the pool).
+  FreeRuns runs(occ(item.node), cell, nx_);
+  fitting_.clear();
+  for (const Placement& p : list) fitting_.push_back(runs.fits(p) ? 1 : 0);
   for (int pi = -1; pi < static_cast<int>(list.size()); ++pi) {
     if (nodes_.size() >= max_nodes_) {
       exhausted_ = true;
       break;
     }
-    if (pi >= 0 && !fits(occ(item.node), cell, list[static_cast<std::size_t>(pi)])) continue;
+    if (pi >= 0 && fitting_[static_cast<std::size_t>(pi)] == 0) continue;
     admit_child(make_child(k, pi));
   }
 }
@@ -209,12 +213,13 @@ void BestFirstSearch::dive(int k, int format, int shape) {
     if (nodes_.size() >= max_nodes_) return;
     const int c = nodes_[static_cast<std::size_t>(k)].cursor;
     const auto& list = placements_[static_cast<std::size_t>(c)];
+    FreeRuns runs(occ(static_cast<std::size_t>(k)), c, nx_);
     int pick = -1;
     for (int pi = 0; pi < static_cast<int>(list.size()); ++pi) {
       const Placement& p = list[static_cast<std::size_t>(pi)];
       if (format >= 0 && shapes_[static_cast<std::size_t>(p.shape)].format != format) continue;
       if (shape >= 0 && p.shape != shape) continue;
-      if (fits(occ(static_cast<std::size_t>(k)), c, p)) {
+      if (runs.fits(p)) {
         pick = pi;
         break;
       }

@@ -304,6 +304,9 @@ void BestFirstSearch::build_placements(const std::vector<double>& sat, double gr
       });
     }
   }
+  nearest_far_side_.assign(placements_.size(), nx_ + 1);
+  for (std::size_t c = 0; c < placements_.size(); ++c)
+    for (const Placement& p : placements_[c]) nearest_far_side_[c] = std::min(nearest_far_side_[c], p.i1);
 }
 
 // Seam penalty of a box (0 without seams): seams across the interior, and edges with a neighbour

@@ -21,8 +21,8 @@ std::uint64_t BestFirstSearch::frontier_key(const Node& n, const std::uint64_t* 
 namespace {
 
 // Calls fn(word, mask) for each 64-bit word the bit range [start, start + len) touches, with the
-// bits of the range inside that word; stops early when fn returns false. Always inlined: the
-// search's cursor tests ranges with it for every cell it passes.
+// bits of the range inside that word; stops early when fn returns false. Always inlined: a
+// placement's rows are set with it for every child.
 template <typename Fn>
 [[gnu::always_inline]] inline bool for_each_range_word(int start, int len, Fn&& fn) {
   int pos = start;
@@ -39,10 +39,6 @@ template <typename Fn>
 
 }  // namespace
 
-bool BestFirstSearch::range_free(const std::uint64_t* occ, int start, int len) const {
-  return for_each_range_word(start, len, [occ](int w, std::uint64_t mask) { return (occ[w] & mask) == 0; });
-}
-
 void BestFirstSearch::set_range(std::uint64_t* occ, int start, int len) {
   for_each_range_word(start, len, [occ](int w, std::uint64_t mask) {
     occ[w] |= mask;
@@ -50,19 +46,15 @@ void BestFirstSearch::set_range(std::uint64_t* occ, int start, int len) {
   });
 }
 
-bool BestFirstSearch::fits(const std::uint64_t* occ, int cell, const Placement& p) const {
-  const int i = cell % nx_, j = cell / nx_;
-  for (int row = j; row < p.j1; ++row) {
-    if (!range_free(occ, row * nx_ + i, p.i1 - i)) return false;
-  }
-  return true;
-}
-
 void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
   const int ncells = nx_ * ny_;
   // No placement covers less of the layer than this (with an outline tolerance, less than
   // a_min_fraction of a box can be enough).
   const double stop_area = std::min(params_.search.a_min_fraction * min_box_area_, min_placement_area_);
+  // The free run along the cursor's row: its row and the column where it ends. Each placement
+  // needs its cell's row free up to its far side, so a cell whose nearest far side lies beyond
+  // the run's end is forced without reading the grid again.
+  int run_row = -1, run_end = 0;
   while (n.cursor < ncells) {
     const double remaining = total_area_ - n.covered - n.lost;
     if (remaining < stop_area) {  // no further box can be placed: the rest is lost
@@ -77,14 +69,13 @@ void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
       n.cursor = std::min(n.cursor, ncells);
       continue;
     }
-    bool any = false;
-    for (const auto& p : placements_[static_cast<std::size_t>(c)]) {
-      if (fits(occ, c, p)) {
-        any = true;
-        break;
-      }
+    const int i = c % nx_, j = c / nx_;
+    if (j != run_row || i >= run_end) run_row = j, run_end = i + free_bits_from(occ, c, nx_ - i);
+    if (run_end >= nearest_far_side_[static_cast<std::size_t>(c)]) {
+      FreeRuns runs(occ, c, nx_);
+      const auto& list = placements_[static_cast<std::size_t>(c)];
+      if (std::any_of(list.begin(), list.end(), [&runs](const Placement& p) { return runs.fits(p); })) break;
     }
-    if (any) break;
     occ[c >> 6] |= std::uint64_t{1} << (c & 63);  // forced: nothing fits here
     n.lost += cell_area_[static_cast<std::size_t>(c)];
     ++n.cursor;
