@@ -212,7 +212,8 @@ TEST_CASE("the search's free runs tell a placement's fit as its cells one by one
   using palletd::layout_detail::best_first::FreeRuns;
   using palletd::layout_detail::best_first::Placement;
   std::mt19937 rng(20261206);
-  for (const auto& [nx, ny] : {std::pair{7, 5}, std::pair{64, 3}, std::pair{70, 9}, std::pair{13, 40}}) {
+  for (const auto& grid : {std::pair{7, 5}, std::pair{64, 3}, std::pair{70, 9}, std::pair{13, 40}}) {
+    const int nx = grid.first, ny = grid.second;  // plain locals: lambdas below capture them
     const int cells = nx * ny;
     for (int trial = 0; trial < 40; ++trial) {
       // Occupancies from sparse to dense; unused bits of the last word left set as well.
