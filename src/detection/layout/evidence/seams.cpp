@@ -51,7 +51,7 @@ double median_abs_deviation(std::vector<double> v) {
 /// between boxes is a dark line in the amplitude image (the gap returns less light than the tops
 /// on either side of it); a step (a label, print, tape, a box of another shade) is darker on one
 /// side only and gives nothing, where an edge detector answers both alike and draws seams along
-/// every label. Whole-image operations on 16-bit counts: the subtraction saturates at 0.
+/// every label. Operations over the window on 16-bit counts: the subtraction saturates at 0.
 cv::Mat dark_line_depths(const std::vector<std::uint16_t>& inten, int width, int height,
                          const layout_detail::PixelWindow& window) {
   constexpr int kAcross[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};

@@ -18,32 +18,15 @@ std::uint64_t BestFirstSearch::frontier_key(const Node& n, const std::uint64_t* 
   return h;
 }
 
-namespace {
-
-// Calls fn(word, mask) for each 64-bit word the bit range [start, start + len) touches, with the
-// bits of the range inside that word; stops early when fn returns false. Always inlined: a
-// placement's rows are set with it for every child.
-template <typename Fn>
-[[gnu::always_inline]] inline bool for_each_range_word(int start, int len, Fn&& fn) {
-  int pos = start;
+void BestFirstSearch::set_range(std::uint64_t* occ, int start, int len) {
+  // Word by word: the bits of [start, start + len) that fall into each word.
   const int end = start + len;
-  while (pos < end) {
-    const int w = pos >> 6, b = pos & 63;
+  for (int pos = start; pos < end;) {
+    const int b = pos & 63;
     const int n = std::min(64 - b, end - pos);
-    const std::uint64_t mask = (n == 64 ? ~std::uint64_t{0} : ((std::uint64_t{1} << n) - 1)) << b;
-    if (!fn(w, mask)) return false;
+    occ[pos >> 6] |= (n == 64 ? ~std::uint64_t{0} : ((std::uint64_t{1} << n) - 1)) << b;
     pos += n;
   }
-  return true;
-}
-
-}  // namespace
-
-void BestFirstSearch::set_range(std::uint64_t* occ, int start, int len) {
-  for_each_range_word(start, len, [occ](int w, std::uint64_t mask) {
-    occ[w] |= mask;
-    return true;
-  });
 }
 
 void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
