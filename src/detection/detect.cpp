@@ -265,9 +265,10 @@ Detection lay_out_layer(const Frame& frame, const std::vector<BoxFormat>& format
   if (std::string problem = too_many_boxes(out.layer_area_m2, smallest_box_m2); !problem.empty())
     return end(std::move(out), DetectionStatus::kNoLayout, problem);
   const auto t0 = Clock::now();
-  const LayoutResult layout = evidence != nullptr
-                                  ? solve_layout(frame, cloud, out.layer, *evidence, formats, params.layout)
-                                  : solve_layout(frame, cloud, out.layer, formats, params.layout);
+  const LayoutResult layout =
+      evidence != nullptr
+          ? solve_layout(frame, cloud, out.layer, *evidence, formats, params.layout, &workspace.search)
+          : solve_layout(frame, cloud, out.layer, formats, params.layout, &workspace.search);
   out.timing_ms["layout"] = ms_since(t0);
   out.ambiguous = layout.ambiguous;
   out.budget_exhausted = layout.budget_exhausted;

@@ -29,6 +29,10 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
+/// The search's node pool kept between triggers (SearchMemory): the bundled demo's largest
+/// searches (recipe 6) use up to 47 MB at the 200 ms cap; a larger one takes the rest for itself.
+constexpr std::size_t kSearchMemoryBytes = std::size_t{48} << 20;
+
 /// The configured server with what the service adds: the first recipe and a log sink.
 modbus::ServerOptions server_options(const Config& config) {
   modbus::ServerOptions o = config.modbus;
@@ -414,7 +418,8 @@ class Service::Impl {
   std::unique_ptr<Acquisition> acquisition_;
   std::unique_ptr<ResultRecording> recording_;  ///< created by start()
   std::unique_ptr<ShadowRunner> shadow_;     ///< created by start(); its thread ends with stop()
-  DetectionWorkspace workspace_;             ///< pipeline thread only: rays and cloud reused
+  /// Pipeline thread only: rays, cloud and the search's memory (its budget taken at start-up) reused.
+  DetectionWorkspace workspace_{{}, {}, SearchMemory(kSearchMemoryBytes)};
   HealthMonitor health_monitor_;             ///< pipeline thread only
   DriftKeeper drift_;                        ///< pipeline thread only
   mutable std::mutex cell_health_mutex_;

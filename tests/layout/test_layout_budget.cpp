@@ -1,6 +1,7 @@
 // The deterministic search budget, footprint moves decided by the seams (mixed formats), and
 // the box-side walk shared by the seam scorers.
 #include <algorithm>
+#include <cstdint>
 #include <limits>
 
 #include <catch2/catch.hpp>
@@ -11,6 +12,7 @@
 #include "frame_boxes.hpp"
 #include "layout_fixtures.hpp"
 #include "layout_internal.hpp"
+#include "search/best_first_internal.hpp"
 
 using namespace palletd;
 using namespace palletd::layout_test;
@@ -61,6 +63,46 @@ TEST_CASE("the expansion budget gives the same result twice, whatever the clock"
   CHECK_FALSE(c.budget_exhausted);  // the default finishes a 40-box layer
   CHECK(c.hypotheses_visited > a.hypotheses_visited);
   CHECK((c.ambiguous || match_error(truth_boxes(l), c.boxes) >= 0.0));  // no seams: grid ties are flagged
+}
+
+TEST_CASE("searches that reuse one memory find what searches with memory of their own find") {
+  // Each layer searched with its own memory, then twice on memories every search before filled
+  // (a 40-box layer first, the largest): one that keeps all it took, one with a 256 kB budget that
+  // the larger searches outgrow. No node, frontier entry or queued item of one search may reach
+  // the next; the first keeps what it took, the second holds exactly its budget afterwards.
+  const std::vector<KnownLayout> layers{grid_200x150(40), mixed_rows(), pinwheel(0.4, 0.3, false), l_shaped(),
+                                        brick()};
+  LayoutParams p;
+  p.search.time_budget_ms = 60000.0;  // the clock never decides here
+  SearchMemory all;
+  constexpr std::size_t kBudgetBytes = std::size_t{256} << 10;
+  SearchMemory budgeted(kBudgetBytes);
+  const std::size_t budget_words = budgeted.storage().pool.capacity();
+  CHECK(budget_words == kBudgetBytes / sizeof(std::uint64_t));
+  bool outgrown = false;
+  for (const KnownLayout& l : layers) {
+    const auto outline = perturb(union_outline(l), 0.002, 0.0, 5U);
+    const LayoutResult own = find_layout(outline, l.formats, p, nullptr);
+    REQUIRE(own.hypotheses_visited > 0);
+    for (SearchMemory* memory : {&all, &budgeted, &all, &budgeted}) {
+      const LayoutResult reused = find_layout(outline, l.formats, p, nullptr, nullptr, memory);
+      CHECK(reused.hypotheses_visited == own.hypotheses_visited);
+      CHECK(reused.status == own.status);
+      CHECK(reused.ambiguous == own.ambiguous);
+      CHECK(same_boxes(reused.boxes, own.boxes));
+    }
+    CHECK(budgeted.storage().pool.capacity() == budget_words);
+    outgrown = outgrown || all.storage().pool.capacity() > budget_words;
+  }
+  CHECK(outgrown);  // the budget was too small for some search, and given back after it
+  // The largest search came first: the later ones found room in what it left.
+  const auto& storage = all.storage();
+  const std::uint64_t* pool_after = storage.pool.data();
+  const std::size_t capacity = storage.pool.capacity();
+  const KnownLayout& first = layers.front();
+  (void)find_layout(perturb(union_outline(first), 0.002, 0.0, 5U), first.formats, p, nullptr, nullptr, &all);
+  CHECK(storage.pool.data() == pool_after);
+  CHECK(storage.pool.capacity() == capacity);
 }
 
 TEST_CASE("box sides: position, direction, extent and the strip beyond") {

@@ -44,6 +44,7 @@ struct LayoutContext {
   const std::vector<BoxFormat>& formats;
   const LayoutParams& params;
   const LayerSurroundings* surroundings = nullptr;  ///< null when there are none to complete into
+  SearchMemory* memory = nullptr;                   ///< the searches' reused memory; null = their own
   FormatExtremes extremes;
   double min_edge_m = 0.0;     ///< outline edges shorter than this carry no corner
   double tie_margin_m2 = 0.0;  ///< outline scores closer than this are near-equal
@@ -51,8 +52,9 @@ struct LayoutContext {
 };
 
 LayoutContext make_context(const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                           const SeamEvidence* seams, const LayerSurroundings* surroundings) {
-  LayoutContext ctx{formats, params, nullptr, format_extremes(formats), 0.0, 0.0, {}};
+                           const SeamEvidence* seams, const LayerSurroundings* surroundings,
+                           SearchMemory* memory) {
+  LayoutContext ctx{formats, params, nullptr, memory, format_extremes(formats), 0.0, 0.0, {}};
   ctx.min_edge_m = min_corner_edge_m(ctx.extremes.min_short_m);
   ctx.tie_margin_m2 = tie_margin_m2(params, formats);
   const bool have_seams = seams != nullptr && !seams->empty() && seams->strength > 0.0;
@@ -167,8 +169,9 @@ void research_with_seams(const PolygonWithHoles& fp, const PolygonWithHoles& fe,
                          LayoutResult& result, std::vector<Candidate>& cands) {
   const SeamTable table(*ctx.judge.seams, frame, bounds_of(fp));
   if (table.empty()) return;
-  const ComponentSolution ss = search_best_first(fp, fe, ctx.formats, ctx.params, &table,
-                                                 budget.orientation_left(), best_score - ctx.tie_margin_m2);
+  const ComponentSolution ss =
+      search_best_first(fp, fe, ctx.formats, ctx.params, &table, budget.orientation_left(),
+                        best_score - ctx.tie_margin_m2, {}, ctx.memory);
   result.search_expansions += ss.expansions;
   budget.spend(ss.expansions);
   tally(result, ss.visited, ss.budget_exhausted);
@@ -197,7 +200,8 @@ std::vector<Candidate> search_orientations(const PolygonWithHoles& comp, const P
     const PolygonWithHoles fe = frame.to_frame(comp_edges);
     const std::size_t slot = frames.add(frame, frame.to_frame(comp));
     const PolygonWithHoles& fp = frames.polygon(slot);
-    const ComponentSolution cs = search_best_first(fp, fe, ctx.formats, ctx.params, nullptr, share);
+    const ComponentSolution cs =
+        search_best_first(fp, fe, ctx.formats, ctx.params, nullptr, share, -1e300, {}, ctx.memory);
     result.search_expansions += cs.expansions;
     budget.spend(cs.expansions);
     tally(result, cs.visited, cs.budget_exhausted);
@@ -400,13 +404,14 @@ namespace {
 /// find_layout() on formats of distinct sizes.
 LayoutResult find_distinct_layout(const std::vector<PolygonWithHoles>& components,
                                   const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                                  const SeamEvidence* seams, const LayerSurroundings* surroundings) {
+                                  const SeamEvidence* seams, const LayerSurroundings* surroundings,
+                                  SearchMemory* memory) {
   const auto t0 = Clock::now();
   LayoutResult result;
   if (components.empty()) {
     result.reason = "the layer has no outline";
   } else {
-    const LayoutContext ctx = make_context(formats, params, seams, surroundings);
+    const LayoutContext ctx = make_context(formats, params, seams, surroundings, memory);
     const auto budget_ms =
         std::chrono::duration<double, std::milli>(std::max(0.0, params.search.time_budget_ms));
     BudgetSplit budget(params.search.search_expansions,
@@ -445,14 +450,16 @@ LayoutResult find_distinct_layout(const std::vector<PolygonWithHoles>& component
 
 LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
                          const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                         const SeamEvidence* seams, const LayerSurroundings* surroundings) {
+                         const SeamEvidence* seams, const LayerSurroundings* surroundings,
+                         SearchMemory* memory) {
   if (std::string bad = box_formats_problem(formats); !bad.empty()) {
     LayoutResult result;
     result.reason = bad;
     return result;
   }
   const DistinctFormats distinct = distinct_formats(formats);
-  LayoutResult result = find_distinct_layout(components, distinct.formats, params, seams, surroundings);
+  LayoutResult result =
+      find_distinct_layout(components, distinct.formats, params, seams, surroundings, memory);
   for (LayoutBox& b : result.boxes) b.format = distinct.original[static_cast<std::size_t>(b.format)];
   return result;
 }

@@ -261,11 +261,14 @@ using SeedEdgeFilter = std::function<bool(const Eigen::Vector2d& a, const Eigen:
 /// best-first search in one layout frame. `frame_edges` (the simplified outline, same frame) gives
 /// the candidate lines; `frame_polygon` the exact areas. With `seams`, the score subtracts seam
 /// penalties; layouts covering less than `min_outline_score` [m^2] are pruned (so that seams
-/// only choose among layouts the outline supports).
-ComponentSolution search_best_first(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
-                                 const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                                 const SeamTable* seams, const SearchBudget& budget,
-                                 double min_outline_score = -1e300, const SeedEdgeFilter& seed_ok = {});
+/// only choose among layouts the outline supports). With `memory`, the search's node pool and
+/// queues live there and keep their capacity for the next search.
+ComponentSolution search_best_first(const PolygonWithHoles& frame_polygon,
+                                    const PolygonWithHoles& frame_edges,
+                                    const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                                    const SeamTable* seams, const SearchBudget& budget,
+                                    double min_outline_score = -1e300, const SeedEdgeFilter& seed_ok = {},
+                                    SearchMemory* memory = nullptr);
 
 /// Algorithms 1-3 in the layer frame (no layout frame; the paper's boxes carry their own angle).
 struct PaperSolution {

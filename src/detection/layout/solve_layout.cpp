@@ -160,15 +160,16 @@ bool completes_unseen(const LayerResult& layer, const CompletionParams& params) 
 }
 
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
-                          const std::vector<BoxFormat>& formats, const LayoutParams& params) {
+                          const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                          SearchMemory* memory) {
   if (layer.status != DetectionStatus::kOk) return without_layer(layer);
   return solve_layout(frame, cloud, layer, build_layer_evidence(frame, cloud, layer, params.seams), formats,
-                      params);
+                      params, memory);
 }
 
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                           const LayerEvidence& evidence, const std::vector<BoxFormat>& formats,
-                          const LayoutParams& params) {
+                          const LayoutParams& params, SearchMemory* memory) {
   if (layer.status != DetectionStatus::kOk) return without_layer(layer);
   const SeamEvidence& seams = evidence.seams;
   double max_long = 0.0;
@@ -182,7 +183,7 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
   if (p.search.outline_tolerance_m <= 0.0) {
     p.search.outline_tolerance_m = p.search.outline_tolerance_pitches * layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
   }
-  LayoutResult result = find_layout(layer.polygons, formats, p, &seams, &around);
+  LayoutResult result = find_layout(layer.polygons, formats, p, &seams, &around, memory);
   const std::vector<RimPixel>& rim = evidence.rim;
   if (p.refine.enabled && p.search.mode != SearchMode::kPaper) {
     result = refine_layout(result, layer, formats, &seams, p, &around, &rim);

@@ -122,23 +122,81 @@ struct QueueItem {
   }
 };
 
+/// Best pasts (covered - penalty [m^2]) seen for one frontier key.
+struct Dominance {
+  double best = 0.0;
+  std::size_t count = 0;
+};
+
+/// The best-first queue; clear() empties it and keeps its capacity.
+class SearchQueue : public std::priority_queue<QueueItem> {
+ public:
+  void clear() { c.clear(); }
+  [[nodiscard]] std::size_t capacity() const { return c.capacity(); }
+  /// Gives back its memory and takes room for exactly `n` items, every page written.
+  void hold(std::size_t n) {
+    std::vector<QueueItem>().swap(c);
+    c.resize(n);
+    c.clear();
+  }
+};
+
+}  // namespace palletd::layout_detail::best_first
+
+namespace palletd {
+
+/// The search's containers that grow with the nodes it makes; a search clears them and keeps
+/// their capacity (SearchMemory).
+struct SearchMemory::Storage {
+  std::vector<layout_detail::best_first::Node> nodes;
+  std::vector<std::uint64_t> pool;  ///< each node's occupancy bits, `words_` per node
+  std::unordered_map<std::uint64_t, layout_detail::best_first::Dominance> frontier;
+  layout_detail::best_first::SearchQueue queue;
+
+  /// With a budget: the pool words and nodes kept between searches (0 = keep all).
+  std::size_t kept_pool_words = 0;
+  std::size_t kept_nodes = 0;
+  std::size_t kept_buckets = 0;  ///< the frontier table's bucket count at that budget
+
+  /// Takes the budget's memory anew, every page written.
+  void hold();
+  /// After a search: containers grown past the budget give their memory back and hold the
+  /// budget again; without a budget nothing changes.
+  void settle();
+};
+
+}  // namespace palletd
+
+namespace palletd::layout_detail::best_first {
+
 class BestFirstSearch {
  public:
-  BestFirstSearch(const PolygonWithHoles& poly, const PolygonWithHoles& edges, const std::vector<BoxFormat>& formats,
-                const LayoutParams& params, const SeamTable* seams, const SearchBudget& budget, double min_outline,
-                const SeedEdgeFilter& seed_ok)
-      : poly_(poly), edges_(edges), formats_(formats), params_(params), seams_(seams), budget_(budget),
-        min_outline_(min_outline), seed_ok_(seed_ok) {}
+  /// The search's nodes, pool, frontier table and queue live in `storage`, emptied here.
+  BestFirstSearch(const PolygonWithHoles& poly, const PolygonWithHoles& edges,
+                  const std::vector<BoxFormat>& formats, const LayoutParams& params, const SeamTable* seams,
+                  const SearchBudget& budget, double min_outline, const SeedEdgeFilter& seed_ok,
+                  SearchMemory::Storage& storage)
+      : poly_(poly),
+        edges_(edges),
+        formats_(formats),
+        params_(params),
+        seams_(seams),
+        budget_(budget),
+        min_outline_(min_outline),
+        seed_ok_(seed_ok),
+        nodes_(storage.nodes),
+        pool_(storage.pool),
+        frontier_(storage.frontier),
+        queue_(storage.queue) {
+    nodes_.clear();
+    pool_.clear();
+    frontier_.clear();
+    queue_.clear();
+  }
 
   ComponentSolution run();
 
  private:
-  /// Best pasts (covered - penalty [m^2]) seen for one frontier key.
-  struct Dominance {
-    double best = 0.0;
-    std::size_t count = 0;
-  };
-
   // Candidates (search_candidates.cpp).
   bool build(std::string* reason);
   std::vector<double> collect_shapes(double* min_short_m);
@@ -194,16 +252,16 @@ class BestFirstSearch {
   double total_area_ = 0, min_box_area_ = 0, tol_ = 0;
   double min_placement_area_ = 0;  ///< least Area(box ∩ layer) of any placement [m^2]
   std::size_t words_ = 0;
-  std::vector<Node> nodes_;
-  std::vector<std::uint64_t> pool_;
+  std::vector<Node>& nodes_;
+  std::vector<std::uint64_t>& pool_;
 
   // Best-first search state.
   std::size_t max_nodes_ = 0;
   double tie_margin_m2_ = 0;  ///< scores closer than this tie [m^2]
   double same_tol_m_ = 0;     ///< box centres closer than this are the same box [m]
-  std::unordered_map<std::uint64_t, Dominance> frontier_;
+  std::unordered_map<std::uint64_t, Dominance>& frontier_;
   std::vector<char> fitting_;  ///< expand(): which placements of the cell fit (scratch)
-  std::priority_queue<QueueItem> queue_;
+  SearchQueue& queue_;
   int best_ = -1;       ///< the best complete layout (popped, or the incumbent), -1 = none yet
   int runner_ = -1;     ///< first kept alternative, -1 = none
   int best_seen_ = 0;   ///< highest score over all generated nodes (the paper's H_max)

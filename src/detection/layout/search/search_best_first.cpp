@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <queue>
 #include <unordered_map>
 
@@ -55,8 +56,10 @@ ComponentSolution BestFirstSearch::run() {
 void BestFirstSearch::start_search() {
   max_nodes_ =
       std::max<std::size_t>(kMinNodes, std::min(params_.search.max_nodes, kMaxPoolBytes / (words_ * kBytesPerWord)));
-  nodes_.reserve(std::min<std::size_t>(max_nodes_, kReservedNodes));
-  pool_.reserve(std::min<std::size_t>(max_nodes_, kReservedNodes) * words_);
+  // Fresh containers reserve room for a typical search; kept ones (SearchMemory) grow only when
+  // this search needs more than they hold.
+  if (nodes_.capacity() == 0) nodes_.reserve(std::min<std::size_t>(max_nodes_, kReservedNodes));
+  if (pool_.capacity() == 0) pool_.reserve(std::min<std::size_t>(max_nodes_, kReservedNodes) * words_);
   tie_margin_m2_ = tie_margin_m2(params_, formats_);
   same_tol_m_ = kSameLayoutTolOfSide * std::sqrt(min_box_area_);
   nodes_.push_back({0, 0, 0, -1, -2, -1, 0, false});
@@ -269,13 +272,61 @@ void BestFirstSearch::fill_solution(ComponentSolution* sol) {
 
 }  // namespace best_first
 
-ComponentSolution search_best_first(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
-                                 const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                                 const SeamTable* seams, const SearchBudget& budget, double min_outline_score,
-                                 const SeedEdgeFilter& seed_ok) {
-  best_first::BestFirstSearch search(frame_polygon, frame_edges, formats, params, seams, budget, min_outline_score,
-                                seed_ok);
-  return search.run();
+ComponentSolution search_best_first(const PolygonWithHoles& frame_polygon,
+                                    const PolygonWithHoles& frame_edges,
+                                    const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                                    const SeamTable* seams, const SearchBudget& budget,
+                                    double min_outline_score, const SeedEdgeFilter& seed_ok,
+                                    SearchMemory* memory) {
+  SearchMemory own;
+  SearchMemory::Storage& storage = (memory != nullptr ? *memory : own).storage();
+  ComponentSolution sol = best_first::BestFirstSearch(frame_polygon, frame_edges, formats, params, seams,
+                                                      budget, min_outline_score, seed_ok, storage)
+                              .run();
+  storage.settle();
+  return sol;
 }
 
 }  // namespace palletd::layout_detail
+
+namespace palletd {
+
+SearchMemory::SearchMemory() = default;
+
+SearchMemory::SearchMemory(std::size_t kept_pool_bytes) : storage_(std::make_unique<Storage>()) {
+  storage_->kept_pool_words =
+      std::max<std::size_t>(1, kept_pool_bytes / layout_detail::best_first::kBytesPerWord);
+  storage_->kept_nodes = layout_detail::best_first::kReservedNodes;
+  storage_->hold();
+}
+
+void SearchMemory::Storage::hold() {
+  std::vector<std::uint64_t>().swap(pool);
+  pool.resize(kept_pool_words);  // writes every page: the memory is resident from now on
+  pool.clear();
+  std::vector<layout_detail::best_first::Node>().swap(nodes);
+  nodes.resize(kept_nodes);
+  nodes.clear();
+  queue.hold(kept_nodes);
+  frontier = {};
+  frontier.reserve(kept_nodes);
+  kept_buckets = frontier.bucket_count();
+}
+
+void SearchMemory::Storage::settle() {
+  if (kept_pool_words == 0) return;
+  if (pool.capacity() > kept_pool_words || nodes.capacity() > kept_nodes || queue.capacity() > kept_nodes ||
+      frontier.bucket_count() > kept_buckets) {
+    hold();
+  }
+}
+SearchMemory::~SearchMemory() = default;
+SearchMemory::SearchMemory(SearchMemory&&) noexcept = default;
+SearchMemory& SearchMemory::operator=(SearchMemory&&) noexcept = default;
+
+SearchMemory::Storage& SearchMemory::storage() {
+  if (!storage_) storage_ = std::make_unique<Storage>();
+  return *storage_;
+}
+
+}  // namespace palletd

@@ -167,6 +167,7 @@ struct Detection {
 struct DetectionWorkspace {
   RayTable rays;         ///< viewing rays of the last frame's intrinsics; rebuilt when they change
   OrganizedCloud cloud;  ///< organized cloud of the last frame [m]
+  SearchMemory search;   ///< the layout search's node pool and queues, kept between frames
 };
 
 /// Runs the whole pipeline on one frame with the given box formats, reusing `workspace`.

@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -328,12 +329,40 @@ InteriorSeams measure_interior_seams(const std::vector<LayoutBox>& boxes, const 
 /// or invalid size, the short side listed first.
 std::string box_formats_problem(const std::vector<BoxFormat>& formats);
 
+/// Memory the layout search keeps from one search to the next: its node pool, queue and frontier
+/// table, which grow to tens of MB on wide recipes. A caller that detects frame after frame (a
+/// DetectionWorkspace) passes one in, so the search reuses that memory instead of taking it from
+/// the allocator and giving it back on every search. Move-only; one thread.
+class SearchMemory {
+ public:
+  struct Storage;  ///< defined with the search (src/detection/layout/search/)
+  /// Keeps whatever the searches took (a batch tool's choice).
+  SearchMemory();
+  /// Takes `kept_pool_bytes` of node pool (and its nodes, queue and frontier table for as many
+  /// nodes as the default search reserves) now, writing every page, and keeps exactly that: a
+  /// search that needs more takes the rest for itself and gives it back when it ends. A daemon's
+  /// resident memory then stays the same whatever its searches reach, which depends on the time
+  /// cap and so on the machine's load.
+  explicit SearchMemory(std::size_t kept_pool_bytes);
+  ~SearchMemory();
+  SearchMemory(SearchMemory&&) noexcept;
+  SearchMemory& operator=(SearchMemory&&) noexcept;
+  SearchMemory(const SearchMemory&) = delete;
+  SearchMemory& operator=(const SearchMemory&) = delete;
+  /// The containers, made on first use (a moved-from memory makes new ones).
+  [[nodiscard]] Storage& storage();
+
+ private:
+  std::unique_ptr<Storage> storage_;
+};
+
 /// Finds the box layout of each component. `seams` may be null (outline only). With
 /// `surroundings`, boxes the outline cuts where the depth ends are completed
-/// (LayoutParams::unseen_min_fraction).
+/// (LayoutParams::unseen_min_fraction). `memory` may be null (the searches allocate their own).
 LayoutResult find_layout(const std::vector<PolygonWithHoles>& components,
                          const std::vector<BoxFormat>& formats, const LayoutParams& params,
-                         const SeamEvidence* seams, const LayerSurroundings* surroundings = nullptr);
+                         const SeamEvidence* seams, const LayerSurroundings* surroundings = nullptr,
+                         SearchMemory* memory = nullptr);
 
 /// Fits the found boxes to the measured outline (layer points) and to seam lines so that
 /// positions reach millimetres; sizes stay at the nominal format within
@@ -364,12 +393,13 @@ LayerEvidence build_layer_evidence(const Frame& frame, const OrganizedCloud& clo
 
 /// build_layer_evidence + find_layout + refine_layout.
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
-                          const std::vector<BoxFormat>& formats, const LayoutParams& params);
+                          const std::vector<BoxFormat>& formats, const LayoutParams& params,
+                          SearchMemory* memory = nullptr);
 
 /// find_layout + refine_layout on evidence built before for this layer and frame.
 LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                           const LayerEvidence& evidence, const std::vector<BoxFormat>& formats,
-                          const LayoutParams& params);
+                          const LayoutParams& params, SearchMemory* memory = nullptr);
 
 /// Area of the intersection of a polygon with holes and an axis-aligned rectangle [m^2] (exact).
 double clipped_area(const PolygonWithHoles& polygon, double x0, double y0, double x1, double y1);
