@@ -5,6 +5,7 @@
 // over its occupancy bits.
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <random>
 #include <utility>
 #include <vector>
@@ -244,4 +245,36 @@ TEST_CASE("the search's free runs tell a placement's fit as its cells one by one
       }
     }
   }
+}
+
+TEST_CASE("the frontier table keeps each key's entry within a search and none across searches",
+          "[layout][search]") {
+  // Random keys against std::map over several searches; keys drawn from a small set collide in
+  // the table's index often, and the table grows from empty past several doublings.
+  best_first::FrontierTable table;
+  std::mt19937_64 rng(17);
+  for (int search = 0; search < 4; ++search) {
+    table.clear();
+    std::map<std::uint64_t, std::size_t> truth;
+    const std::uint64_t spread = search % 2 == 0 ? 5000 : std::uint64_t{1} << 40;
+    for (int op = 0; op < 20000; ++op) {
+      const std::uint64_t key = (rng() % spread) << (search == 3 ? 44 : 0);  // search 3: low bits all zero
+      best_first::Dominance& d = table[key];
+      REQUIRE(d.count == truth[key]);
+      ++d.count;
+      d.best = static_cast<double>(key);
+      ++truth[key];
+    }
+    CHECK(table.size() == truth.size());
+    for (const auto& entry : truth) {
+      const best_first::Dominance& d = table[entry.first];
+      CHECK(d.count == entry.second);
+      CHECK(d.best == static_cast<double>(entry.first));
+    }
+    CHECK(table.capacity() >= 2 * truth.size());
+  }
+  table.hold(100);
+  CHECK(table.capacity() == 1024);
+  CHECK(table.size() == 0);
+  CHECK(table[42].count == 0);
 }

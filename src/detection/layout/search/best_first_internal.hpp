@@ -9,7 +9,6 @@
 #include <cstdint>
 #include <queue>
 #include <string>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -128,6 +127,49 @@ struct Dominance {
   std::size_t count = 0;
 };
 
+/// Frontier keys and their best pasts for one search: open addressing with linear probing in a
+/// power-of-two table at most half full. A slot belongs to the search whose stamp it carries, so
+/// clear() is one increment and a search's entries are never allocated one by one.
+class FrontierTable {
+ public:
+  /// The entry of `key`; a new one has count 0.
+  Dominance& operator[](std::uint64_t key) {
+    if (2 * (size_ + 1) > slots_.size()) grow();
+    std::size_t i = index(key);
+    while (slots_[i].stamp == stamp_) {
+      if (slots_[i].key == key) return slots_[i].value;
+      i = (i + 1) & mask_;
+    }
+    slots_[i] = {key, stamp_, {}};
+    ++size_;
+    return slots_[i].value;
+  }
+  void clear();
+  [[nodiscard]] std::size_t size() const { return size_; }
+  [[nodiscard]] std::size_t capacity() const { return slots_.size(); }
+  /// Gives back its memory and takes room for `n` entries, every page written.
+  void hold(std::size_t n);
+
+ private:
+  struct Slot {
+    std::uint64_t key = 0;
+    std::uint32_t stamp = 0;  ///< 0: never used
+    Dominance value;
+  };
+  /// Fibonacci hashing: the key's high bits after a multiply, as many as the table has.
+  [[nodiscard]] std::size_t index(std::uint64_t key) const {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> shift_);
+  }
+  void resize(std::size_t slots);  ///< a power of two; re-inserts this search's entries
+
+  std::vector<Slot> slots_;
+  std::size_t size_ = 0;
+  std::size_t mask_ = 0;
+  int shift_ = 63;
+  std::uint32_t stamp_ = 1;
+  void grow() { resize(std::max<std::size_t>(1024, 2 * slots_.size())); }
+};
+
 /// The best-first queue; clear() empties it and keeps its capacity.
 class SearchQueue : public std::priority_queue<QueueItem> {
  public:
@@ -150,13 +192,13 @@ namespace palletd {
 struct SearchMemory::Storage {
   std::vector<layout_detail::best_first::Node> nodes;
   std::vector<std::uint64_t> pool;  ///< each node's occupancy bits, `words_` per node
-  std::unordered_map<std::uint64_t, layout_detail::best_first::Dominance> frontier;
+  layout_detail::best_first::FrontierTable frontier;
   layout_detail::best_first::SearchQueue queue;
 
   /// With a budget: the pool words and nodes kept between searches (0 = keep all).
   std::size_t kept_pool_words = 0;
   std::size_t kept_nodes = 0;
-  std::size_t kept_buckets = 0;  ///< the frontier table's bucket count at that budget
+  std::size_t kept_slots = 0;  ///< the frontier table's slots at that budget
 
   /// Takes the budget's memory anew, every page written.
   void hold();
@@ -259,7 +301,7 @@ class BestFirstSearch {
   std::size_t max_nodes_ = 0;
   double tie_margin_m2_ = 0;  ///< scores closer than this tie [m^2]
   double same_tol_m_ = 0;     ///< box centres closer than this are the same box [m]
-  std::unordered_map<std::uint64_t, Dominance>& frontier_;
+  FrontierTable& frontier_;
   std::vector<char> fitting_;  ///< expand(): which placements of the cell fit (scratch)
   SearchQueue& queue_;
   int best_ = -1;       ///< the best complete layout (popped, or the incumbent), -1 = none yet

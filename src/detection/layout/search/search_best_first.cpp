@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <memory>
 #include <queue>
-#include <unordered_map>
 
 #include "search/best_first_internal.hpp"
 
@@ -308,15 +307,14 @@ void SearchMemory::Storage::hold() {
   nodes.resize(kept_nodes);
   nodes.clear();
   queue.hold(kept_nodes);
-  frontier = {};
-  frontier.reserve(kept_nodes);
-  kept_buckets = frontier.bucket_count();
+  frontier.hold(kept_nodes);
+  kept_slots = frontier.capacity();
 }
 
 void SearchMemory::Storage::settle() {
   if (kept_pool_words == 0) return;
   if (pool.capacity() > kept_pool_words || nodes.capacity() > kept_nodes || queue.capacity() > kept_nodes ||
-      frontier.bucket_count() > kept_buckets) {
+      frontier.capacity() > kept_slots) {
     hold();
   }
 }

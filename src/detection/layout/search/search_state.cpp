@@ -82,4 +82,33 @@ std::vector<FrameBox> BestFirstSearch::boxes_of(int node) const {
   return out;
 }
 
+void FrontierTable::clear() {
+  size_ = 0;
+  if (++stamp_ == 0) {  // the stamps wrapped: no slot may look like this search's
+    for (Slot& slot : slots_) slot.stamp = 0;
+    stamp_ = 1;
+  }
+}
+
+void FrontierTable::hold(std::size_t n) {
+  std::vector<Slot>().swap(slots_);
+  size_ = 0;
+  std::size_t slots = 1024;
+  while (slots < 2 * n) slots *= 2;
+  resize(slots);  // value-initialised: every page written
+}
+
+void FrontierTable::resize(std::size_t slots) {
+  std::vector<Slot> old(slots);
+  old.swap(slots_);
+  mask_ = slots - 1;
+  shift_ = 64 - __builtin_ctzll(slots);
+  for (const Slot& slot : old) {
+    if (slot.stamp != stamp_) continue;
+    std::size_t i = index(slot.key);
+    while (slots_[i].stamp == stamp_) i = (i + 1) & mask_;
+    slots_[i] = slot;
+  }
+}
+
 }  // namespace palletd::layout_detail::best_first
