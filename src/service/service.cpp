@@ -29,9 +29,11 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-/// The search's node pool kept between triggers (SearchMemory): the bundled demo's largest
-/// searches (recipe 6) use up to 47 MB at the 200 ms cap; a larger one takes the rest for itself.
+/// The search's memory kept between triggers (SearchMemory): the bundled demo's largest searches
+/// (recipe 6) use up to 47 MB of pool and 109,000 nodes at the 200 ms cap; a larger one takes the
+/// rest for itself.
 constexpr std::size_t kSearchMemoryBytes = std::size_t{48} << 20;
+constexpr std::size_t kSearchMemoryNodes = std::size_t{1} << 17;
 
 /// The configured server with what the service adds: the first recipe and a log sink.
 modbus::ServerOptions server_options(const Config& config) {
@@ -419,7 +421,7 @@ class Service::Impl {
   std::unique_ptr<ResultRecording> recording_;  ///< created by start()
   std::unique_ptr<ShadowRunner> shadow_;     ///< created by start(); its thread ends with stop()
   /// Pipeline thread only: rays, cloud and the search's memory (its budget taken at start-up) reused.
-  DetectionWorkspace workspace_{{}, {}, SearchMemory(kSearchMemoryBytes)};
+  DetectionWorkspace workspace_{{}, {}, SearchMemory(kSearchMemoryBytes, kSearchMemoryNodes)};
   HealthMonitor health_monitor_;             ///< pipeline thread only
   DriftKeeper drift_;                        ///< pipeline thread only
   mutable std::mutex cell_health_mutex_;

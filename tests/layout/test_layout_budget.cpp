@@ -67,8 +67,8 @@ TEST_CASE("the expansion budget gives the same result twice, whatever the clock"
 
 TEST_CASE("searches that reuse one memory find what searches with memory of their own find") {
   // Each layer searched with its own memory, then twice on memories every search before filled
-  // (a 40-box layer first, the largest): one that keeps all it took, one with a 256 kB budget that
-  // the larger searches outgrow. No node, frontier entry or queued item of one search may reach
+  // (a 40-box layer first, the largest): one that keeps all it took, one with a 256 kB budget (512 nodes)
+  // that the larger searches outgrow. No node, frontier entry or queued item of one search may reach
   // the next; the first keeps what it took, the second holds exactly its budget afterwards.
   const std::vector<KnownLayout> layers{grid_200x150(40), mixed_rows(), pinwheel(0.4, 0.3, false), l_shaped(),
                                         brick()};
@@ -76,7 +76,7 @@ TEST_CASE("searches that reuse one memory find what searches with memory of thei
   p.search.time_budget_ms = 60000.0;  // the clock never decides here
   SearchMemory all;
   constexpr std::size_t kBudgetBytes = std::size_t{256} << 10;
-  SearchMemory budgeted(kBudgetBytes);
+  SearchMemory budgeted(kBudgetBytes, 512);
   const std::size_t budget_words = budgeted.storage().pool.capacity();
   CHECK(budget_words == kBudgetBytes / sizeof(std::uint64_t));
   bool outgrown = false;

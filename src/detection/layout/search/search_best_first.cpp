@@ -292,10 +292,11 @@ namespace palletd {
 
 SearchMemory::SearchMemory() = default;
 
-SearchMemory::SearchMemory(std::size_t kept_pool_bytes) : storage_(std::make_unique<Storage>()) {
+SearchMemory::SearchMemory(std::size_t kept_pool_bytes, std::size_t kept_nodes)
+    : storage_(std::make_unique<Storage>()) {
   storage_->kept_pool_words =
       std::max<std::size_t>(1, kept_pool_bytes / layout_detail::best_first::kBytesPerWord);
-  storage_->kept_nodes = layout_detail::best_first::kReservedNodes;
+  storage_->kept_nodes = std::max<std::size_t>(1, kept_nodes);
   storage_->hold();
 }
 

@@ -338,12 +338,12 @@ class SearchMemory {
   struct Storage;  ///< defined with the search (src/detection/layout/search/)
   /// Keeps whatever the searches took (a batch tool's choice).
   SearchMemory();
-  /// Takes `kept_pool_bytes` of node pool (and its nodes, queue and frontier table for as many
-  /// nodes as the default search reserves) now, writing every page, and keeps exactly that: a
-  /// search that needs more takes the rest for itself and gives it back when it ends. A daemon's
-  /// resident memory then stays the same whatever its searches reach, which depends on the time
-  /// cap and so on the machine's load.
-  explicit SearchMemory(std::size_t kept_pool_bytes);
+  /// Takes `kept_pool_bytes` of node pool and room for `kept_nodes` nodes (their queue and
+  /// frontier table too) now, writing every page, and keeps exactly that: a search that needs
+  /// more takes the rest for itself and gives it back when it ends. A daemon's resident memory
+  /// then stays the same whatever its searches reach, which depends on the time cap and so on
+  /// the machine's load.
+  SearchMemory(std::size_t kept_pool_bytes, std::size_t kept_nodes);
   ~SearchMemory();
   SearchMemory(SearchMemory&&) noexcept;
   SearchMemory& operator=(SearchMemory&&) noexcept;
