@@ -65,6 +65,31 @@ TEST_CASE("the expansion budget gives the same result twice, whatever the clock"
   CHECK((c.ambiguous || match_error(truth_boxes(l), c.boxes) >= 0.0));  // no seams: grid ties are flagged
 }
 
+TEST_CASE(
+    "a wide recipe's search by the seams ends well before its budget on a block of its largest format") {
+  // Four 600 x 400 in two by two and a recipe of five formats, three of which divide 600 x 400
+  // (400 x 300, 300 x 200, 200 x 150): the outline alone cannot tell them apart. The seams between
+  // the cartons show faintly (a coarse camera), and every side between two boxes costs what its
+  // seam lacks. The bound charges the cells still to fill the least such cost a box over them can
+  // have, so the search need not open every split of the four cartons before it takes them whole.
+  KnownLayout l = block(2, 2, 0.6, 0.4);
+  l.formats = {{0.6, 0.4, "600x400"},
+               {0.4, 0.3, "400x300"},
+               {0.3, 0.2, "300x200"},
+               {0.315, 0.232, "315x232"},
+               {0.2, 0.15, "200x150"}};
+  SeamEvidence faint = synthetic_seams(l, 0.008, 0.004);
+  for (float& v : faint.seam) v *= 0.5F;
+  LayoutParams p;
+  p.search.time_budget_ms = 60000.0;  // the expansion budget decides, not the clock
+  const LayoutResult r = find_layout(union_outline(l), l.formats, p, &faint);
+  REQUIRE(r.status == DetectionStatus::kOk);
+  CHECK_FALSE(r.budget_exhausted);
+  CHECK(r.search_expansions < p.search.search_expansions / 10);
+  CHECK(match_error(truth_boxes(l), r.boxes) >= 0.0);
+  for (const LayoutBox& b : r.boxes) CHECK(b.format == 0);
+}
+
 TEST_CASE("searches that reuse one memory find what searches with memory of their own find") {
   // Each layer searched with its own memory, then twice on memories every search before filled
   // (a 40-box layer first, the largest): one that keeps all it took, one with a 256 kB budget (512 nodes)

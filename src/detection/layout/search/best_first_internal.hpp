@@ -18,6 +18,9 @@ namespace palletd::layout_detail::best_first {
 
 constexpr std::size_t kMaxLinesPerAxis = 240;
 constexpr std::size_t kMaxPoolBytes = std::size_t{96} << 20;
+/// The look-ahead's rounding allowance: a node's future cost is a running difference of sums,
+/// and a bound a rounding error too tight could prune a layout at the margin's edge [m^2].
+constexpr double kFutureSlackM2 = 1e-9;
 
 struct Shape {
   double dx, dy;
@@ -30,6 +33,7 @@ struct Placement {
   int i1, j1;   ///< end line indices (exclusive cell range [i, i1) x [j, j1))
   double area;  ///< Area(box ∩ layer) [m^2]
   double penalty;
+  double future = 0.0;  ///< the least future cost of its cells (future_cost_ summed over them) [m^2]
 };
 
 /// Candidate lines on one axis: seeds closed under adding every (signed) box side, merged within
@@ -37,6 +41,9 @@ struct Placement {
 std::vector<double> close_lines(std::vector<std::pair<double, double>> seeds /* (pos, weight) */,
                                 const std::vector<double>& dims, double lo, double hi, double tol,
                                 bool* capped);
+
+/// Sum over the cell range [i, i1) x [j, j1) from a summed-area table ((rows + 1) x stride).
+double sat_area(const std::vector<double>& sat, std::size_t stride, int i, int j, int i1, int j1);
 
 /// Index of the line nearest to v within tol, or -1.
 int find_line(const std::vector<double>& lines, double v, double tol);
@@ -56,12 +63,28 @@ struct EdgeSeeds {
 
 struct Node {
   double covered, lost, penalty;
+  double future;  ///< a lower bound of the cost still to come: the undecided cells' future_cost_ [m^2]
   int parent;
-  int placement;  ///< index into placements of `cell`, -1 = skip, -2 = root
-  int cell;       ///< decided cell of this step
+  int placement;  ///< index into the placements of the parent's cursor cell, -1 = skip, -2 = root
   int cursor;     ///< first possibly undecided cell
   bool complete;
 };
+
+/// Sets the bits [start, start + len) of an occupancy, len > 0: the first and the last word take
+/// the bits of the range they hold, the words between are full.
+inline void set_range(std::uint64_t* occ, int start, int len) {
+  const int last = start + len - 1;
+  const int w0 = start >> 6, w1 = last >> 6;
+  const std::uint64_t head = ~std::uint64_t{0} << (start & 63);
+  const std::uint64_t tail = ~std::uint64_t{0} >> (63 - (last & 63));
+  if (w0 == w1) {
+    occ[w0] |= head & tail;
+    return;
+  }
+  occ[w0] |= head;
+  for (int w = w0 + 1; w < w1; ++w) occ[w] = ~std::uint64_t{0};
+  occ[w1] |= tail;
+}
 
 /// Free cells (0 bits) of an occupancy from bit `start` on, at most `limit`.
 inline int free_bits_from(const std::uint64_t* occ, int start, int limit) {
@@ -248,6 +271,7 @@ class BestFirstSearch {
   std::vector<double> measure_cells();
   void build_placements(const std::vector<double>& sat, double grow_m);
   [[nodiscard]] double seam_penalty(const Rect& r, const AreaOracle* mask) const;
+  void measure_future_costs(const std::vector<double>& sat);
 
   // Best-first search (search_best_first.cpp).
   void start_search();
@@ -262,12 +286,17 @@ class BestFirstSearch {
   /// of any format for -1; of shape `shape` only, or of any shape for -1).
   void dive(int k, int format, int shape = -1);
   [[nodiscard]] double score_of(int k) const;
+  /// The node's upper bound of any completion's score (future: search_future.cpp) [m^2].
+  [[nodiscard]] double bound_of(const Node& n) const {
+    return total_area_ - n.lost - n.penalty - std::max(0.0, n.future - kFutureSlackM2);
+  }
   [[nodiscard]] double floor_score() const;
   void fill_solution(ComponentSolution* sol);
 
   // Node state (search_state.cpp).
-  static void set_range(std::uint64_t* occ, int start, int len);
   void advance(Node& n, std::uint64_t* occ) const;
+  /// Whether any placement of `cell` fits the occupancy.
+  [[nodiscard]] bool fits_any(const std::uint64_t* occ, int cell) const;
   std::vector<FrameBox> boxes_of(int node) const;
   std::uint64_t* occ(std::size_t node) { return pool_.data() + node * words_; }
   /// Key of a node's frontier: its cursor and the occupancy from the cursor on. Two nodes with
@@ -291,6 +320,9 @@ class BestFirstSearch {
   /// Per cell: the least end column of its placements (nx_ + 1 without any): no placement fits
   /// where the cell's row is free for fewer columns than that.
   std::vector<int> nearest_far_side_;
+  /// Per cell: the least cost it can still add to a layout, lost (its area) or covered (its share
+  /// of the least penalty per area of a placement over it) [m^2].
+  std::vector<double> future_cost_;
   double total_area_ = 0, min_box_area_ = 0, tol_ = 0;
   double min_placement_area_ = 0;  ///< least Area(box ∩ layer) of any placement [m^2]
   std::size_t words_ = 0;

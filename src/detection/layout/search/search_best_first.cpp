@@ -61,10 +61,12 @@ void BestFirstSearch::start_search() {
   if (pool_.capacity() == 0) pool_.reserve(std::min<std::size_t>(max_nodes_, kReservedNodes) * words_);
   tie_margin_m2_ = tie_margin_m2(params_, formats_);
   same_tol_m_ = kSameLayoutTolOfSide * std::sqrt(min_box_area_);
-  nodes_.push_back({0, 0, 0, -1, -2, -1, 0, false});
+  double future = 0.0;
+  for (double f : future_cost_) future += f;
+  nodes_.push_back({0, 0, 0, future, -1, -2, 0, false});
   pool_.resize(words_, 0);
   advance(nodes_[0], occ(0));
-  queue_.push({quantized(total_area_ - nodes_[0].lost), nodes_[0].cursor, 0});
+  queue_.push({quantized(bound_of(nodes_[0])), nodes_[0].cursor, 0});
 }
 
 // Pops nodes best bound first until the queue runs dry, the bound falls below the floor, the
@@ -82,7 +84,7 @@ void BestFirstSearch::search_best_first(ComponentSolution* sol) {
     queue_.pop();
     const int k = static_cast<int>(item.node);
     const Node cur = nodes_[item.node];
-    const double bound = total_area_ - cur.lost - cur.penalty;
+    const double bound = bound_of(cur);
     if (bound < floor_score()) break;  // nothing left within the margin
     if (cur.complete) {
       if (take_complete(k, sol)) break;
@@ -143,7 +145,7 @@ void BestFirstSearch::expand(const QueueItem& item, int cell) {
 // covers less than the outline minimum, or better pasts with its frontier dominate it.
 void BestFirstSearch::admit_child(std::size_t idx) {
   const Node& child = nodes_[idx];
-  const double child_bound = total_area_ - child.lost - child.penalty;
+  const double child_bound = bound_of(child);
   if (child_bound < floor_score() || total_area_ - child.lost < min_outline_) {
     drop_last_node();
     return;
@@ -185,7 +187,6 @@ std::size_t BestFirstSearch::make_child(int k, int pi) {
   Node child = cur;
   child.parent = k;
   child.placement = pi;
-  child.cell = c;
   const std::size_t idx = nodes_.size();
   pool_.resize(pool_.size() + words_);
   std::copy(occ(static_cast<std::size_t>(k)), occ(static_cast<std::size_t>(k)) + words_, occ(idx));
@@ -193,12 +194,14 @@ std::size_t BestFirstSearch::make_child(int k, int pi) {
   if (pi < 0) {
     o[c >> 6] |= std::uint64_t{1} << (c & 63);
     child.lost += cell_area_[static_cast<std::size_t>(c)];
+    child.future -= future_cost_[static_cast<std::size_t>(c)];
   } else {
     const Placement& p = placements_[static_cast<std::size_t>(c)][static_cast<std::size_t>(pi)];
     const int i = c % nx_, j = c / nx_;
     for (int row = j; row < p.j1; ++row) set_range(o, row * nx_ + i, p.i1 - i);
     child.covered += p.area;
     child.penalty += p.penalty;
+    child.future -= p.future;
   }
   ++child.cursor;
   advance(child, o);

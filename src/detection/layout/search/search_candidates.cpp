@@ -110,14 +110,6 @@ std::vector<double> close_both(const AxisSeeds& seeds, const std::vector<double>
   return out;
 }
 
-/// Area of the cell range [i, i1) x [j, j1) from the summed-area table (row stride `stride`).
-double sat_area(const std::vector<double>& sat, std::size_t stride, int i, int j, int i1, int j1) {
-  return sat[static_cast<std::size_t>(j1) * stride + static_cast<std::size_t>(i1)] -
-         sat[static_cast<std::size_t>(j) * stride + static_cast<std::size_t>(i1)] -
-         sat[static_cast<std::size_t>(j1) * stride + static_cast<std::size_t>(i)] +
-         sat[static_cast<std::size_t>(j) * stride + static_cast<std::size_t>(i)];
-}
-
 /// The a_min test on the outline grown by its uncertainty (LayoutParams::outline_tolerance_m),
 /// rasterised only when a placement is short of a_min by less than the growth can add.
 class GrownLayerTest {
@@ -146,6 +138,14 @@ class GrownLayerTest {
 
 }  // namespace
 
+/// Area of the cell range [i, i1) x [j, j1) from the summed-area table (row stride `stride`).
+double sat_area(const std::vector<double>& sat, std::size_t stride, int i, int j, int i1, int j1) {
+  return sat[static_cast<std::size_t>(j1) * stride + static_cast<std::size_t>(i1)] -
+         sat[static_cast<std::size_t>(j) * stride + static_cast<std::size_t>(i1)] -
+         sat[static_cast<std::size_t>(j1) * stride + static_cast<std::size_t>(i)] +
+         sat[static_cast<std::size_t>(j) * stride + static_cast<std::size_t>(i)];
+}
+
 bool BestFirstSearch::build(std::string* reason) {
   double min_short = kNoSideYetM;
   const std::vector<double> dims = collect_shapes(&min_short);
@@ -172,6 +172,7 @@ bool BestFirstSearch::build(std::string* reason) {
   }
   const std::vector<double> sat = measure_cells();
   build_placements(sat, grow_m);
+  measure_future_costs(sat);
   words_ = (cell_area_.size() + kBitsPerWord - 1) / kBitsPerWord;
   return true;
 }

@@ -18,31 +18,19 @@ std::uint64_t BestFirstSearch::frontier_key(const Node& n, const std::uint64_t* 
   return h;
 }
 
-void BestFirstSearch::set_range(std::uint64_t* occ, int start, int len) {
-  // Word by word: the bits of [start, start + len) that fall into each word.
-  const int end = start + len;
-  for (int pos = start; pos < end;) {
-    const int b = pos & 63;
-    const int n = std::min(64 - b, end - pos);
-    occ[pos >> 6] |= (n == 64 ? ~std::uint64_t{0} : ((std::uint64_t{1} << n) - 1)) << b;
-    pos += n;
-  }
-}
-
 void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
   const int ncells = nx_ * ny_;
   // No placement covers less of the layer than this (with an outline tolerance, less than
   // a_min_fraction of a box can be enough).
   const double stop_area = std::min(params_.search.a_min_fraction * min_box_area_, min_placement_area_);
-  // The free run along the cursor's row: its row and the column where it ends. Each placement
-  // needs its cell's row free up to its far side, so a cell whose nearest far side lies beyond
-  // the run's end is forced without reading the grid again.
-  int run_row = -1, run_end = 0;
+  const auto lose_the_rest = [&n, ncells](double remaining) {
+    n.lost += std::max(0.0, remaining);
+    n.future = 0.0;
+    n.cursor = ncells;
+  };
   while (n.cursor < ncells) {
-    const double remaining = total_area_ - n.covered - n.lost;
-    if (remaining < stop_area) {  // no further box can be placed: the rest is lost
-      n.lost += std::max(0.0, remaining);
-      n.cursor = ncells;
+    if (total_area_ - n.covered - n.lost < stop_area) {  // no further box can be placed: the rest is lost
+      lose_the_rest(total_area_ - n.covered - n.lost);
       break;
     }
     const int c = n.cursor;
@@ -52,18 +40,35 @@ void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
       n.cursor = std::min(n.cursor, ncells);
       continue;
     }
-    const int i = c % nx_, j = c / nx_;
-    if (j != run_row || i >= run_end) run_row = j, run_end = i + free_bits_from(occ, c, nx_ - i);
-    if (run_end >= nearest_far_side_[static_cast<std::size_t>(c)]) {
-      FreeRuns runs(occ, c, nx_);
-      const auto& list = placements_[static_cast<std::size_t>(c)];
-      if (std::any_of(list.begin(), list.end(), [&runs](const Placement& p) { return runs.fits(p); })) break;
+    // The free run along the cursor's row, [c, run_last). Each placement needs its cell's row free
+    // up to its far side, so a cell whose nearest far side lies beyond the run's end is forced
+    // without reading the grid; the run's forced cells are marked at once.
+    const int i = c % nx_;
+    const int run_end = i + free_bits_from(occ, c, nx_ - i);
+    const int run_last = c + (run_end - i);
+    int k = c;
+    for (; k < run_last; ++k) {
+      if (k > c && total_area_ - n.covered - n.lost < stop_area) break;
+      if (run_end >= nearest_far_side_[static_cast<std::size_t>(k)] && fits_any(occ, k)) break;
+      n.lost += cell_area_[static_cast<std::size_t>(k)];  // forced: nothing fits here
+      n.future -= future_cost_[static_cast<std::size_t>(k)];
     }
-    occ[c >> 6] |= std::uint64_t{1} << (c & 63);  // forced: nothing fits here
-    n.lost += cell_area_[static_cast<std::size_t>(c)];
-    ++n.cursor;
+    if (k > c) set_range(occ, c, k - c);
+    n.cursor = k;
+    if (k < run_last) {
+      if (total_area_ - n.covered - n.lost < stop_area) lose_the_rest(total_area_ - n.covered - n.lost);
+      break;  // a placement fits at k (or nothing more can be placed)
+    }
   }
   n.complete = n.cursor >= ncells;
+  if (n.complete) n.future = 0.0;
+  n.future = std::max(0.0, n.future);
+}
+
+bool BestFirstSearch::fits_any(const std::uint64_t* occ, int cell) const {
+  FreeRuns runs(occ, cell, nx_);
+  const auto& list = placements_[static_cast<std::size_t>(cell)];
+  return std::any_of(list.begin(), list.end(), [&runs](const Placement& p) { return runs.fits(p); });
 }
 
 std::vector<FrameBox> BestFirstSearch::boxes_of(int node) const {
@@ -71,8 +76,9 @@ std::vector<FrameBox> BestFirstSearch::boxes_of(int node) const {
   for (int k = node; k >= 0; k = nodes_[static_cast<std::size_t>(k)].parent) {
     const Node& n = nodes_[static_cast<std::size_t>(k)];
     if (n.placement < 0) continue;
-    const Placement& p = placements_[static_cast<std::size_t>(n.cell)][static_cast<std::size_t>(n.placement)];
-    const int i = n.cell % nx_, j = n.cell / nx_;
+    const int cell = nodes_[static_cast<std::size_t>(n.parent)].cursor;  // the cell this step decided
+    const Placement& p = placements_[static_cast<std::size_t>(cell)][static_cast<std::size_t>(n.placement)];
+    const int i = cell % nx_, j = cell / nx_;
     const Shape& s = shapes_[static_cast<std::size_t>(p.shape)];
     out.push_back({{xs_[static_cast<std::size_t>(i)], ys_[static_cast<std::size_t>(j)],
                     xs_[static_cast<std::size_t>(p.i1)], ys_[static_cast<std::size_t>(p.j1)]},
