@@ -86,6 +86,18 @@ inline void set_range(std::uint64_t* occ, int start, int len) {
   occ[w1] |= tail;
 }
 
+/// The first free cell (0 bit) of an occupancy from bit `from` on, or `limit` when none is below it.
+inline int next_free_bit(const std::uint64_t* occ, int from, int limit) {
+  int w = from >> 6;
+  const int words = (limit + 63) >> 6;
+  std::uint64_t free_bits = ~occ[w] & (~std::uint64_t{0} << (from & 63));
+  while (free_bits == 0) {
+    if (++w >= words) return limit;
+    free_bits = ~occ[w];
+  }
+  return std::min(limit, (w << 6) + __builtin_ctzll(free_bits));
+}
+
 /// Free cells (0 bits) of an occupancy from bit `start` on, at most `limit`.
 inline int free_bits_from(const std::uint64_t* occ, int start, int limit) {
   int run = 0;

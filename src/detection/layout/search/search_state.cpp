@@ -33,13 +33,9 @@ void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
       lose_the_rest(total_area_ - n.covered - n.lost);
       break;
     }
-    const int c = n.cursor;
-    if ((occ[c >> 6] >> (c & 63)) & 1U) {  // covered: on to the next free cell of the word, or the next word
-      const std::uint64_t free_bits = ~occ[c >> 6] >> (c & 63);
-      n.cursor = free_bits == 0 ? ((c >> 6) + 1) << 6 : c + __builtin_ctzll(free_bits);
-      n.cursor = std::min(n.cursor, ncells);
-      continue;
-    }
+    const int c = next_free_bit(occ, n.cursor, ncells);  // covered cells are decided
+    n.cursor = c;
+    if (c >= ncells) break;
     // The free run along the cursor's row, [c, run_last). Each placement needs its cell's row free
     // up to its far side, so a cell whose nearest far side lies beyond the run's end is forced
     // without reading the grid; the run's forced cells are marked at once.
