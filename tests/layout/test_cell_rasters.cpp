@@ -247,6 +247,33 @@ TEST_CASE("the search's free runs tell a placement's fit as its cells one by one
   }
 }
 
+TEST_CASE("the occupancy's ranges and next free cells agree with its bits one by one", "[layout][search]") {
+  // Ranges that start and end anywhere in a word, fill one word exactly or span several; the next
+  // free cell from every cell, with a limit inside the last word.
+  std::mt19937 rng(61206);
+  constexpr int kCells = 300;
+  for (int trial = 0; trial < 400; ++trial) {
+    std::vector<std::uint64_t> occ((kCells + 63) / 64, 0);
+    std::vector<bool> bits(kCells, false);
+    for (int r = 0; r < 1 + trial % 7; ++r) {
+      const int start = std::uniform_int_distribution<int>(0, kCells - 1)(rng);
+      const int max_len = std::min(kCells - start, trial % 3 == 0 ? 64 : 200);
+      const int len = std::uniform_int_distribution<int>(1, max_len)(rng);
+      best_first::set_range(occ.data(), start, len);
+      for (int b = start; b < start + len; ++b) bits[static_cast<std::size_t>(b)] = true;
+    }
+    for (int b = 0; b < kCells; ++b)
+      CHECK(((occ[static_cast<std::size_t>(b >> 6)] >> (b & 63)) & 1U) ==
+            (bits[static_cast<std::size_t>(b)] ? 1U : 0U));
+    const int limit = kCells - trial % 5;
+    for (int from = 0; from < limit; ++from) {
+      int next = from;
+      while (next < limit && bits[static_cast<std::size_t>(next)]) ++next;
+      CHECK(best_first::next_free_bit(occ.data(), from, limit) == next);
+    }
+  }
+}
+
 TEST_CASE("the frontier table keeps each key's entry within a search and none across searches",
           "[layout][search]") {
   // Random keys against std::map over several searches; keys drawn from a small set collide in

@@ -205,17 +205,21 @@ class FrontierTable {
   void grow() { resize(std::max<std::size_t>(1024, 2 * slots_.size())); }
 };
 
+/// Gives back a vector's memory and takes room for exactly `n` elements, every page written.
+template <typename T>
+void hold_exactly(std::vector<T>& v, std::size_t n) {
+  std::vector<T>().swap(v);
+  v.resize(n);
+  v.clear();
+}
+
 /// The best-first queue; clear() empties it and keeps its capacity.
 class SearchQueue : public std::priority_queue<QueueItem> {
  public:
   void clear() { c.clear(); }
   [[nodiscard]] std::size_t capacity() const { return c.capacity(); }
   /// Gives back its memory and takes room for exactly `n` items, every page written.
-  void hold(std::size_t n) {
-    std::vector<QueueItem>().swap(c);
-    c.resize(n);
-    c.clear();
-  }
+  void hold(std::size_t n) { hold_exactly(c, n); }
 };
 
 }  // namespace palletd::layout_detail::best_first

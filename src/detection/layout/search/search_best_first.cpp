@@ -304,12 +304,9 @@ SearchMemory::SearchMemory(std::size_t kept_pool_bytes, std::size_t kept_nodes)
 }
 
 void SearchMemory::Storage::hold() {
-  std::vector<std::uint64_t>().swap(pool);
-  pool.resize(kept_pool_words);  // writes every page: the memory is resident from now on
-  pool.clear();
-  std::vector<layout_detail::best_first::Node>().swap(nodes);
-  nodes.resize(kept_nodes);
-  nodes.clear();
+  // Every page written: the memory is resident from now on.
+  layout_detail::best_first::hold_exactly(pool, kept_pool_words);
+  layout_detail::best_first::hold_exactly(nodes, kept_nodes);
   queue.hold(kept_nodes);
   frontier.hold(kept_nodes);
   kept_slots = frontier.capacity();
