@@ -465,6 +465,20 @@ TEST_CASE("an outline whose holes touch is moved in all the same") {
   CHECK_FALSE(run.eval.unflagged_wrong);
 }
 
+// Frame 18 of `palletctl simulate --out U2 -n 150 --pattern block interlock mixed brick pinwheel
+// --profile all --extra-format 200x150 300x200 --gap-max 12 --oversize-max 0.03 --corner-radius
+// 3:8 --seed 91016`: four 600 x 400 on helios2, the recipe also offering 300 x 200 and 200 x 150,
+// which divide 600 x 400. The outline alone has more near-equal layouts than its budget goes
+// through; the seams were never asked and 30 small boxes came out, flagged. The search by the
+// seams now follows an outline-only search that ran out, and finds the four cartons.
+TEST_CASE("a wide recipe's layouts too many for the outline alone are decided by the seams") {
+  const BundledRun run = run_bundled("wide/block_600x400_euro_recipe_helios2");
+  REQUIRE(run.eval.status == "ok");
+  CHECK(run.detection.boxes.size() == 4);
+  CHECK(run.eval.exact);
+  CHECK_FALSE(run.eval.ambiguous);
+}
+
 // Frame 89 of `palletctl simulate --out Q3 -n 240 --pattern all --profile d435 xtion o3d303-small
 // --oversize-max 0.05 --corner-radius 2:10 --gap-max 20 --fill 0.2:1 --removal holes clusters
 // random --seed 90996`: five 315 x 232 of a pinwheel on xtion 1.75 m away, whose depths come in

@@ -164,16 +164,26 @@ bool solve_paper_component(const PolygonWithHoles& comp, const PolygonWithHoles&
 /// Too many near-equal tilings to list: a seam-penalised search chooses among the layouts whose
 /// outline score is within the tie margin of the best (never fewer boxes); its layouts join the
 /// candidates with their outline scores.
-void research_with_seams(const PolygonWithHoles& fp, const PolygonWithHoles& fe, const LayoutFrame& frame,
+/// Returns whether the search by the seams completed.
+bool research_with_seams(const PolygonWithHoles& fp, const PolygonWithHoles& fe, const LayoutFrame& frame,
                          std::size_t slot, double best_score, const LayoutContext& ctx, BudgetSplit& budget,
                          LayoutResult& result, std::vector<Candidate>& cands) {
   const SeamTable table(*ctx.judge.seams, frame, bounds_of(fp));
-  if (table.empty()) return;
-  const ComponentSolution ss =
-      search_best_first(fp, fe, ctx.formats, ctx.params, &table, budget.orientation_left(),
-                        best_score - ctx.tie_margin_m2, {}, ctx.memory);
+  if (table.empty()) return false;
+  // After an outline-only search that ran out, what the orientation has left may be nothing: the
+  // search again after completion's floor applies.
+  const bool spent = budget.orientation_left().expansions == 0;
+  const SearchBudget share =
+      spent ? budget.research(ctx.params.search.search_expansions / kResearchShareDivisor)
+            : budget.orientation_left();
+  const ComponentSolution ss = search_best_first(fp, fe, ctx.formats, ctx.params, &table, share,
+                                                 best_score - ctx.tie_margin_m2, {}, ctx.memory);
   result.search_expansions += ss.expansions;
-  budget.spend(ss.expansions);
+  if (spent) {
+    budget.spend_call(ss.expansions);
+  } else {
+    budget.spend(ss.expansions);
+  }
   tally(result, ss.visited, ss.budget_exhausted);
   if (ss.found) cands.push_back({frame, ss.boxes, ss.outline_score, slot});
   for (const auto& alt : ss.alternatives) {
@@ -181,6 +191,7 @@ void research_with_seams(const PolygonWithHoles& fp, const PolygonWithHoles& fe,
     for (const auto& b : alt) covered_m2 += clipped_area(fp, b.rect.x0, b.rect.y0, b.rect.x1, b.rect.y1);
     cands.push_back({frame, alt, covered_m2, slot});
   }
+  return !ss.budget_exhausted;
 }
 
 /// The best-first search in each of the component's best supported layout orientations: the
@@ -204,8 +215,8 @@ std::vector<Candidate> search_orientations(const PolygonWithHoles& comp, const P
         search_best_first(fp, fe, ctx.formats, ctx.params, nullptr, share, -1e300, {}, ctx.memory);
     result.search_expansions += cs.expansions;
     budget.spend(cs.expansions);
-    tally(result, cs.visited, cs.budget_exhausted);
     if (!cs.found) {
+      tally(result, cs.visited, cs.budget_exhausted);
       why = cs.reason;
       continue;
     }
@@ -213,9 +224,16 @@ std::vector<Candidate> search_orientations(const PolygonWithHoles& comp, const P
     for (std::size_t a = 0; a < cs.alternatives.size(); ++a) {
       cands.push_back({frame, cs.alternatives[a], cs.alternative_scores[a], slot});
     }
-    if (cs.alternatives.size() >= kMaxAlternatives && !cs.budget_exhausted && ctx.judge.seams != nullptr) {
-      research_with_seams(fp, fe, frame, slot, cs.score, ctx, budget, result, cands);
+    // Layouts the outline cannot tell apart: the six near-equal ones found, or so many that the
+    // search ran out among them. The seams search the layouts within the margin of the best
+    // coverage found; when that search completes, nothing within it is left unexamined.
+    bool exhausted = cs.budget_exhausted;
+    const bool outline_tied = cs.alternatives.size() >= kMaxAlternatives || cs.budget_exhausted;
+    if (outline_tied && ctx.judge.seams != nullptr &&
+        research_with_seams(fp, fe, frame, slot, cs.score, ctx, budget, result, cands)) {
+      exhausted = false;
     }
+    tally(result, cs.visited, exhausted);
   }
   return cands;
 }
