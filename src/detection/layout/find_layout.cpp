@@ -161,10 +161,10 @@ bool solve_paper_component(const PolygonWithHoles& comp, const PolygonWithHoles&
   return true;
 }
 
-/// Too many near-equal tilings to list: a seam-penalised search chooses among the layouts whose
-/// outline score is within the tie margin of the best (never fewer boxes); its layouts join the
-/// candidates with their outline scores.
-/// Returns whether the search by the seams completed.
+/// Too many near-equal tilings to list, or so many that the outline-only search ran out among
+/// them: a seam-penalised search chooses among the layouts whose outline score is within the tie
+/// margin of the best found (never fewer boxes); its layouts join the candidates with their outline
+/// scores. Returns whether it completed.
 bool research_with_seams(const PolygonWithHoles& fp, const PolygonWithHoles& fe, const LayoutFrame& frame,
                          std::size_t slot, double best_score, const LayoutContext& ctx, BudgetSplit& budget,
                          LayoutResult& result, std::vector<Candidate>& cands) {

@@ -1,6 +1,7 @@
 // Private to the best-first layout search (search_*.cpp): its cell grid, nodes and the search
 // class. Pieces: search_candidates.cpp (candidate lines, cells, placements), search_state.cpp
-// (occupancy bits, canonical frontier keys, forced cells), search_best_first.cpp (best-first queue).
+// (occupancy bits, canonical frontier keys, forced cells), search_future.cpp (the bound's
+// look-ahead), search_best_first.cpp (best-first queue).
 #pragma once
 
 #include <algorithm>

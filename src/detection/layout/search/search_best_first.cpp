@@ -1,6 +1,7 @@
 // Product layout search: bottom-left canonical filling, best-first on an admissible bound
-// (covered + undecided area), greedy incumbent dives, near-equal alternatives for the ambiguity
-// test. Candidate generation in search_candidates.cpp, node state in search_state.cpp.
+// (covered + undecided area, less the least cost the undecided cells can still add:
+// search_future.cpp), greedy incumbent dives, near-equal alternatives for the ambiguity test.
+// Candidate generation in search_candidates.cpp, node state in search_state.cpp.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

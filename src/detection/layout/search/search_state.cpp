@@ -23,14 +23,15 @@ void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
   // No placement covers less of the layer than this (with an outline tolerance, less than
   // a_min_fraction of a box can be enough).
   const double stop_area = std::min(params_.search.a_min_fraction * min_box_area_, min_placement_area_);
-  const auto lose_the_rest = [&n, ncells](double remaining) {
-    n.lost += std::max(0.0, remaining);
+  const auto remaining = [this, &n] { return total_area_ - n.covered - n.lost; };
+  const auto lose_the_rest = [&n, ncells](double rest) {
+    n.lost += std::max(0.0, rest);
     n.future = 0.0;
     n.cursor = ncells;
   };
   while (n.cursor < ncells) {
-    if (total_area_ - n.covered - n.lost < stop_area) {  // no further box can be placed: the rest is lost
-      lose_the_rest(total_area_ - n.covered - n.lost);
+    if (remaining() < stop_area) {  // no further box can be placed: the rest is lost
+      lose_the_rest(remaining());
       break;
     }
     const int c = next_free_bit(occ, n.cursor, ncells);  // covered cells are decided
@@ -44,7 +45,7 @@ void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
     const int run_last = c + (run_end - i);
     int k = c;
     for (; k < run_last; ++k) {
-      if (k > c && total_area_ - n.covered - n.lost < stop_area) break;
+      if (k > c && remaining() < stop_area) break;
       if (run_end >= nearest_far_side_[static_cast<std::size_t>(k)] && fits_any(occ, k)) break;
       n.lost += cell_area_[static_cast<std::size_t>(k)];  // forced: nothing fits here
       n.future -= future_cost_[static_cast<std::size_t>(k)];
@@ -52,7 +53,7 @@ void BestFirstSearch::advance(Node& n, std::uint64_t* occ) const {
     if (k > c) set_range(occ, c, k - c);
     n.cursor = k;
     if (k < run_last) {
-      if (total_area_ - n.covered - n.lost < stop_area) lose_the_rest(total_area_ - n.covered - n.lost);
+      if (remaining() < stop_area) lose_the_rest(remaining());
       break;  // a placement fits at k (or nothing more can be placed)
     }
   }
