@@ -29,9 +29,9 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-/// The search's memory kept between triggers (SearchMemory): the bundled demo's largest searches
-/// (recipe 6) use up to 47 MB of pool and 109,000 nodes at the 200 ms cap; a larger one takes the
-/// rest for itself.
+/// The search's memory kept between triggers (SearchMemory): room for more than the bundled
+/// demo's largest searches (recipe 6 at the 200 ms cap; details in docs/benchmarks.md, "The
+/// search's memory kept between searches"); a larger one takes the rest for itself.
 constexpr std::size_t kSearchMemoryBytes = std::size_t{48} << 20;
 constexpr std::size_t kSearchMemoryNodes = std::size_t{1} << 17;
 
