@@ -58,6 +58,9 @@ constexpr std::size_t kMinSheetBoxes = 4;
 constexpr std::size_t kMinTapedBoxes = 2;
 /// A seam line across a box (or between two boxes) at least this strong tells one box from two.
 constexpr double kSplitSeam = 0.5;
+/// A seam between two boxes weaker than this is not seen at all (a faint trace of a pressed seam
+/// reaches 0.3-0.5 on the fine time-of-flight profiles).
+constexpr double kNoSeamSeen = 0.2;
 /// A layout mixing formats whose boxes show seams along less than this share of the sides where
 /// they meet rests on the outline alone (the seams that would tell one mix from another are shut).
 constexpr double kMixSeenShare = 0.25;
@@ -96,10 +99,24 @@ bool has_carton_sized_hole(const PolygonWithHoles& piece) {
 }  // namespace
 
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
-  if (resolves_seams(layout)) return std::nullopt;
+  const auto weak = [](double seam) { return seam >= 0.0 && seam < kSplitSeam; };
+  if (resolves_seams(layout)) {
+    // No seam seen means there is none: one box is right where two could stand, but two (or four)
+    // boxes that meet without a seam are one carton of the format they make.
+    std::size_t joined = 0;
+    for (const LayoutBox& b : layout.boxes) {
+      joined += b.evidence.join_seam >= 0.0 && b.evidence.join_seam < kNoSeamSeen ? 1 : 0;
+    }
+    if (joined == 0) return std::nullopt;
+    return LevelVerdict{DetectionStatus::kOk,
+                        std::to_string(joined) +
+                            " box(es) meet a box of their format where this camera shows seams and no seam "
+                            "is seen between them: one carton of the recipe format they make together may "
+                            "stand there"};
+  }
   std::size_t undecided = 0;
   for (const LayoutBox& b : layout.boxes) {
-    if (b.evidence.split_seam >= 0.0 && b.evidence.split_seam < kSplitSeam) ++undecided;
+    if (weak(b.evidence.split_seam) || weak(b.evidence.join_seam)) ++undecided;
   }
   if (undecided == 0) return std::nullopt;
   return LevelVerdict{DetectionStatus::kOk,

@@ -47,9 +47,11 @@ std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerRe
                                        const std::vector<BoxFormat>& formats);
 
 /// A box that two boxes of another recipe format could replace, or a pair or a block of four one
-/// box could (LayoutBox evidence split_seam), with no seam seen across it, on a camera that does not show
-/// narrow seams (a coarse pitch, or no mixed pixels at edges): the outline is the same either
-/// way and nothing in the frame decides, so the layout is flagged (kOk with the sentence).
+/// box could (LayoutBox evidence split_seam, join_seam), with no seam seen across it, on a camera
+/// that does not show narrow seams (a coarse pitch, or no mixed pixels at edges): the outline is
+/// the same either way and nothing in the frame decides, so the layout is flagged (kOk with the
+/// sentence). On a camera that shows them, a pair or block with no seam seen at all between its
+/// boxes is flagged: it is one carton as far as the frame shows.
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout);
 
 /// A layout of two or more formats on a camera that does not show narrow seams, or whose boxes

@@ -258,6 +258,29 @@ TEST_CASE("one box or two of another format: flagged where the camera cannot sho
   CHECK_FALSE(formats_undecided(layout));
 }
 
+TEST_CASE("two boxes that make another format meet without a seam: flagged on any camera",
+          "[cell][formats]") {
+  LayoutResult layout;
+  layout.status = DetectionStatus::kOk;
+  LayoutBox box;
+  box.evidence.join_seam = 0.1;  // it and a neighbour make one box of another format: no seam between
+  layout.boxes = {box, box};
+  layout.pixel_pitch_m = 0.004;  // a fine time-of-flight camera: no seam seen means there is none
+  layout.rim_share = 0.6;
+  const std::optional<LevelVerdict> fine = formats_undecided(layout);
+  REQUIRE(fine);
+  CHECK(fine->status == DetectionStatus::kOk);
+  CHECK_THAT(fine->message, Catch::StartsWith("2 box(es) meet a box of their format"));
+  layout.rim_share = 0.05;  // a stereo camera: nothing decides
+  REQUIRE(formats_undecided(layout));
+  CHECK_THAT(formats_undecided(layout)->message, Catch::Contains("another recipe format"));
+  layout.rim_share = 0.6;
+  for (LayoutBox& b : layout.boxes) b.evidence.join_seam = 0.3;  // a faint trace of a pressed seam
+  CHECK_FALSE(formats_undecided(layout));
+  for (LayoutBox& b : layout.boxes) b.evidence.join_seam = 0.8;  // the seam between them is seen
+  CHECK_FALSE(formats_undecided(layout));
+}
+
 TEST_CASE("the full layer a sheet would cover shows its seams", "[cell][sheet]") {
   const sim::SimulatedFrame f = render_family(sim::SceneFamily::kIsolated, "helios2", 5);
   const Detection d = detect(f.frame, formats_of(f), DetectionParams{});

@@ -309,13 +309,13 @@ TEST_CASE("detect() flags a layout with a box over a hole the outline lost") {
   CHECK(run.detection.boxes.size() == 12);  // one more than stand there
 }
 
-// palletd simulate --pattern all --profile all --scene all --oversize-max 0.05 --corner-radius 3:8
-// --gap-max 20 --seed 90892, frame 99 (blaze101, 5.8 mm per pixel): a pinwheel of four cartons
-// beside six others, laid out as its mirror image; the search found no other candidate, and the
-// seams of the real pinwheel cross the tops of the boxes laid out (seams_across_boxes).
+// palletctl simulate --out W2 -n 240 --pattern pinwheel chimney mixed --profile helios2 blaze101
+// --scene all --oversize-max 0.05 --corner-radius 3:8 --gap-max 20 --seed 91021, frame 95 (helios2):
+// a chimney of eleven cartons laid out otherwise than they stand; the seams of the real chimney
+// cross the tops of five boxes laid out (seams_across_boxes).
 TEST_CASE("detect() flags a layout whose boxes a seen seam crosses") {
   const BundledRun run =
-      run_flagged("flags/pinwheel_315x232_mirrored_blaze101", "seam line across their top");
+      run_flagged("flags/chimney_315x232_seam_across_boxes_helios2", "seam line across their top");
   CHECK_FALSE(run.eval.exact);
 }
 

@@ -49,9 +49,10 @@ int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half)
   return format_of_size(formats, 2.0 * half.short_m, half.long_m);
 }
 
-/// Marks boxes whose place another format could take by two, or a pair that one box of another
-/// format could replace, with the strongest seam across that box or pair: where the camera does
-/// not show narrow seams, nothing else tells the two apart (level_checks.cpp).
+/// Marks boxes whose place another format could take by two (split_seam), or a pair that one box
+/// of another format could replace (join_seam), with the strongest seam across that box or pair:
+/// where the camera does not show narrow seams, nothing else tells the two apart; where it does,
+/// a pair without a seam between is one carton (level_checks.cpp).
 void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const std::vector<BoxFormat>& formats,
                        const SeamEvidence& seams, const LayoutParams& params, LayoutResult& result) {
   // Per format: the format two of it make, and whether two of another format make it.
@@ -88,7 +89,7 @@ void mark_format_doubt(const std::vector<PolygonWithHoles>& components, const st
       const double seam =
           layout_detail::box_support(pair, components[static_cast<std::size_t>(b.component)], &seams, params)
               .interior_seam;
-      b.evidence.split_seam = b.evidence.split_seam < 0 ? seam : std::min(b.evidence.split_seam, seam);
+      b.evidence.join_seam = b.evidence.join_seam < 0 ? seam : std::min(b.evidence.join_seam, seam);
     }
   }
 }
@@ -110,7 +111,7 @@ const LayoutBox* neighbour_at(const std::vector<LayoutBox>& boxes, const LayoutB
 /// 300 x 200 make a 600 x 400): the pairs along their long sides make a third format (400 x 300),
 /// which mark_format_doubt weighs, but the line between those pairs, across the block's middle,
 /// is weighed by no pair. With no seam along it the block could as well be one carton: each box
-/// keeps the weaker seam as its split_seam.
+/// keeps the weaker seam as its join_seam.
 void mark_block_doubt(const std::vector<BoxFormat>& formats, const SeamEvidence& seams,
                       const LayoutParams& params, LayoutResult& result) {
   constexpr double kReach_m = 0.015;  // the line's place: half the widest gap and a pose error
@@ -132,7 +133,7 @@ void mark_block_doubt(const std::vector<BoxFormat>& formats, const SeamEvidence&
         whole.short_m = formats[static_cast<std::size_t>(block)].short_m;
         whole.format = block;
         const double seam = layout_detail::seam_across_middle(whole, &seams, params, kReach_m);
-        b.evidence.split_seam = b.evidence.split_seam < 0 ? seam : std::min(b.evidence.split_seam, seam);
+        b.evidence.join_seam = b.evidence.join_seam < 0 ? seam : std::min(b.evidence.join_seam, seam);
       }
     }
   }

@@ -262,10 +262,13 @@ struct BoxEvidence {
   /// unconfirmed (position_sigma_m stays -1).
   bool fit_rejected = false;
   bool contested = false;  ///< the runner-up layout of its component has no box of its size here
-  /// Where the recipe makes the box two boxes of another format, or it and a neighbour (or it and
-  /// three neighbours two by two) one box of another format: the strongest seam line across that
-  /// box or pair (across the block's middle), the weakest of them, 0..1; -1 = none of these.
+  /// Where the recipe makes the box two boxes of another format: the strongest seam line across
+  /// it, 0..1; -1 = no such format.
   double split_seam = -1.0;
+  /// Where it and a neighbour (or it and three neighbours two by two) make one box of another
+  /// recipe format: the strongest seam line between them (across the block's middle), the
+  /// weakest over such neighbours, 0..1; -1 = none.
+  double join_seam = -1.0;
   /// Side lengths measured from its own sides alone (the outline or a seam seen on both opposite
   /// sides, no prior), long and short [m]; -1 where a side of the pair was not seen. The recipe
   /// check compares them with the format (recipe_check.hpp).
