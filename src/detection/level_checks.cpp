@@ -99,14 +99,13 @@ bool has_carton_sized_hole(const PolygonWithHoles& piece) {
 }  // namespace
 
 std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
-  const auto weak = [](double seam) { return seam >= 0.0 && seam < kSplitSeam; };
+  // A seam measured (>= 0) and below the limit.
+  const auto below = [](double seam, double limit) { return seam >= 0.0 && seam < limit; };
   if (resolves_seams(layout)) {
     // No seam seen means there is none: one box is right where two could stand, but two (or four)
     // boxes that meet without a seam are one carton of the format they make.
     std::size_t joined = 0;
-    for (const LayoutBox& b : layout.boxes) {
-      joined += b.evidence.join_seam >= 0.0 && b.evidence.join_seam < kNoSeamSeen ? 1 : 0;
-    }
+    for (const LayoutBox& b : layout.boxes) joined += below(b.evidence.join_seam, kNoSeamSeen) ? 1 : 0;
     if (joined == 0) return std::nullopt;
     return LevelVerdict{DetectionStatus::kOk,
                         std::to_string(joined) +
@@ -116,7 +115,7 @@ std::optional<LevelVerdict> formats_undecided(const LayoutResult& layout) {
   }
   std::size_t undecided = 0;
   for (const LayoutBox& b : layout.boxes) {
-    if (weak(b.evidence.split_seam) || weak(b.evidence.join_seam)) ++undecided;
+    if (below(b.evidence.split_seam, kSplitSeam) || below(b.evidence.join_seam, kSplitSeam)) ++undecided;
   }
   if (undecided == 0) return std::nullopt;
   return LevelVerdict{DetectionStatus::kOk,
