@@ -22,12 +22,6 @@ namespace palletd {
 
 using namespace openni2;  // the driver's private pieces (openni2_session.hpp)
 
-namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-}  // namespace
-
 bool is_oni_path(const std::string& uri) {
   if (uri.size() < 4) return false;
   std::string ext = uri.substr(uri.size() - 4);
@@ -39,7 +33,7 @@ Intrinsics intrinsics_from_fov(int width, int height, double hfov_rad, double vf
   Intrinsics k;
   k.width = width;
   k.height = height;
-  if (!(hfov_rad > 0.0 && hfov_rad < kPi && vfov_rad > 0.0 && vfov_rad < kPi)) return k;
+  if (!(hfov_rad > 0.0 && hfov_rad < M_PI && vfov_rad > 0.0 && vfov_rad < M_PI)) return k;
   k.fx = 0.5 * width / std::tan(0.5 * hfov_rad);
   k.fy = 0.5 * height / std::tan(0.5 * vfov_rad);
   k.cx = (width - 1) / 2.0;

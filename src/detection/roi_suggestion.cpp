@@ -155,7 +155,7 @@ std::optional<double> floor_level_m(const Points& points) {
 }
 
 /// The occupancy grid over the plan frame's x-y: cell (col, row) covers origin + cell * [col, row].
-struct Grid {
+struct HeightGrid {
   Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
   double cell_m = 0.01;
   int cols = 0, rows = 0;
@@ -170,7 +170,7 @@ struct Grid {
   }
 };
 
-Grid make_grid(const Points& standing, const Eigen::Vector2d& seed_m, double cell_m) {
+HeightGrid make_grid(const Points& standing, const Eigen::Vector2d& seed_m, double cell_m) {
   Eigen::Vector2d lo = seed_m, hi = seed_m;
   for (const Eigen::Vector3d& p : standing) {
     lo = lo.cwiseMin(p.head<2>());
@@ -179,7 +179,7 @@ Grid make_grid(const Points& standing, const Eigen::Vector2d& seed_m, double cel
   const Eigen::Vector2d reach = Eigen::Vector2d::Constant(kMaxReach_m);
   lo = lo.cwiseMax(seed_m - reach) - Eigen::Vector2d::Constant(cell_m);
   hi = hi.cwiseMin(seed_m + reach) + Eigen::Vector2d::Constant(cell_m);
-  Grid g;
+  HeightGrid g;
   g.origin_m = lo;
   g.cell_m = cell_m;
   g.cols = static_cast<int>(std::ceil((hi.x() - lo.x()) / cell_m)) + 1;
@@ -188,7 +188,7 @@ Grid make_grid(const Points& standing, const Eigen::Vector2d& seed_m, double cel
 }
 
 /// 255 where a point at most `max_z_m` high falls.
-cv::Mat occupancy(const Grid& grid, const Points& standing, double max_z_m) {
+cv::Mat occupancy(const HeightGrid& grid, const Points& standing, double max_z_m) {
   cv::Mat occupied(grid.rows, grid.cols, CV_8UC1, cv::Scalar(0));
   cv::Point c;
   for (const Eigen::Vector3d& p : standing) {
@@ -265,8 +265,8 @@ double percentile(std::vector<double> values, double share) {
 
 /// Heights of the points whose cell is set in `mask`, at most `max_z_m` high; with `centre` and
 /// radius_cells > 0 only those of cells that close to it.
-std::vector<double> heights_in(const Points& standing, const Grid& grid, const cv::Mat& mask, double max_z_m,
-                               const cv::Point& centre = {}, double radius_cells = 0.0) {
+std::vector<double> heights_in(const Points& standing, const HeightGrid& grid, const cv::Mat& mask,
+                               double max_z_m, const cv::Point& centre = {}, double radius_cells = 0.0) {
   std::vector<double> z;
   cv::Point c;
   for (const Eigen::Vector3d& p : standing) {
@@ -293,7 +293,7 @@ int count_other_objects(const cv::Mat& occupied, const cv::Mat& footprint, int g
 }
 
 /// The footprint's outline in plan x-y: the largest outer contour of the closed mask, simplified.
-Ring2d outline_m(const Grid& grid, const cv::Mat& footprint, int gap_cells) {
+Ring2d outline_m(const HeightGrid& grid, const cv::Mat& footprint, int gap_cells) {
   cv::Mat closed;
   cv::morphologyEx(footprint, closed, cv::MORPH_CLOSE, square(gap_cells));
   std::vector<std::vector<cv::Point>> contours;
@@ -333,7 +333,7 @@ bool find_footprint(const Points& points, const Frame& frame, const RoiSuggestio
     return false;
   }
   const Eigen::Vector2d seed = seed_m(s.T_plan_camera, s.floor_z_m, standing);
-  const Grid grid = make_grid(standing, seed, o.cell_m);
+  const HeightGrid grid = make_grid(standing, seed, o.cell_m);
   const double range_m =
       (Eigen::Vector3d(seed.x(), seed.y(), s.floor_z_m) - s.T_plan_camera.translation()).norm();
   const int gap =

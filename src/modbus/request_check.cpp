@@ -14,8 +14,6 @@ constexpr unsigned kMaxReadRegisters = 125;
 constexpr unsigned kMaxWriteRegisters = 123;
 constexpr unsigned kMaxRwWriteRegisters = 121;
 
-unsigned u16(const std::uint8_t* p) { return (static_cast<unsigned>(p[0]) << 8) | p[1]; }
-
 bool in_range(unsigned address, unsigned count, unsigned limit) { return address + count <= limit; }
 
 }  // namespace

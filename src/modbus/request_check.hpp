@@ -27,6 +27,9 @@ enum FunctionCode : std::uint8_t {
   kReadWriteMultipleRegisters = 23,
 };
 
+/// A big-endian 16-bit field of a Modbus frame.
+inline unsigned u16(const std::uint8_t* p) { return (static_cast<unsigned>(p[0]) << 8) | p[1]; }
+
 /// 0 when the request is valid and may go to modbus_reply, else the exception code to answer.
 /// Order of checks as in the Modbus application protocol: function (01), quantity and
 /// framing (03), address (02); then writes from read-only clients (02).

@@ -75,8 +75,6 @@ struct Connection {
 
 inline std::string errno_text() { return std::strerror(errno); }
 
-inline unsigned u16(const std::uint8_t* p) { return (static_cast<unsigned>(p[0]) << 8) | p[1]; }
-
 inline constexpr auto kMaxPollWait = std::chrono::milliseconds(200);
 inline constexpr std::size_t kReadChunk = 4096;
 inline constexpr std::size_t kMaxReadPerWakeup = 16 * kReadChunk;  // fairness between clients

@@ -30,20 +30,21 @@ Detection detect_recipe(const Config& config, const Recipe& recipe, const Frame&
 }
 
 double warm_up(Acquisition& acquisition, const Config& config, DetectionWorkspace& workspace) {
-  using Clock = std::chrono::steady_clock;
   const Recipe* recipe = find_recipe(config, config.pipeline.default_recipe);
   if (recipe == nullptr) return -1.0;
-  Expected<Frame> grabbed = acquisition.frame_after(
-      Clock::now(), std::chrono::milliseconds(static_cast<long>(config.camera.frame_timeout_ms)));
+  Expected<Frame> grabbed =
+      acquisition.frame_after(std::chrono::steady_clock::now(),
+                              std::chrono::milliseconds(static_cast<long>(config.camera.frame_timeout_ms)));
   if (!grabbed) {
     spdlog::info("warm-up detection skipped: {}", grabbed.error());
     return -1.0;
   }
   Frame frame = std::move(grabbed).value();
   apply_calibration(config, frame);
-  const auto t0 = Clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   const Detection detection = detect_recipe(config, *recipe, frame, workspace);
-  const double elapsed_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  const double elapsed_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   spdlog::info("warm-up detection on the first frame (recipe {}): {} in {:.0f} ms", recipe->number,
                to_string(detection.status), elapsed_ms);
   return elapsed_ms;

@@ -13,15 +13,15 @@ namespace palletd {
 
 TriggerAnswer answer_trigger(const Config& cfg, const Recipe& recipe, const Frame& frame,
                              DetectionWorkspace& workspace) {
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   TriggerAnswer a;
   a.detection = detect_recipe(cfg, recipe, frame, workspace);
   if (a.detection.status == DetectionStatus::kRecipeMismatch) {  // which recipe the frame shows
     a.detection.recipe_check.best_recipe =
         best_fitting_recipe(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace);
   }
-  const double elapsed_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  const double elapsed_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   a.record = to_result_record(a.detection, frame.T_base_camera.has_value());
   a.record.processing_ms = elapsed_ms;
   if (elapsed_ms > cfg.pipeline.detection_timeout_ms) {

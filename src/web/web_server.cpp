@@ -29,6 +29,13 @@ namespace palletd {
 
 extern const char* const kStatusPageHtml;  // status_page.cpp (generated from status_page.html)
 
+/// A frame's files as the status page serves them (a member of WebServer::Impl's cache, so not
+/// in the unnamed namespace).
+struct FrameFiles {
+  std::string depth_png, intensity_png, meta_json;
+  std::string error;  ///< non-empty when they could not be produced
+};
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -36,11 +43,6 @@ namespace fs = std::filesystem;
 /// The Prometheus text exposition format's content type.
 constexpr const char* kMetricsContentType = "text/plain; version=0.0.4; charset=utf-8";
 using web::Json;
-
-struct FrameFiles {
-  std::string depth_png, intensity_png, meta_json;
-  std::string error;  ///< non-empty when they could not be produced
-};
 
 std::string read_file_bytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);

@@ -2,12 +2,17 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
+#include "palletd/core/geometry.hpp"
 #include "palletd/sim/sim.hpp"
 
 namespace palletd::testing {
+
+/// The top of the simulator's pallets above the floor (world = base frame) [m].
+inline constexpr double kPalletTop_m = 0.144;
 
 /// A full block layer of 400x300 cartons on a EUR pallet, seen by a helios2 from 1.6-2.0 m
 /// (base = world): seams and outline seen well.
@@ -48,6 +53,13 @@ inline sim::SimulatedFrame render_layer(sim::PatternFamily pattern, const char* 
   Expected<sim::Scene> scene = sim::make_scene(layer_options(pattern, format, gap_max_m), p, seed);
   REQUIRE(scene);
   return sim::render(*scene, p, seed);
+}
+
+/// The formats of a simulated frame's recipe, each of height `height_m` (0: not given).
+inline std::vector<BoxFormat> formats_of(const sim::SimulatedFrame& f, double height_m = 0.0) {
+  std::vector<BoxFormat> out;
+  for (const auto& r : f.scene.recipe) out.push_back(BoxFormat{r.long_m, r.short_m, r.name, height_m});
+  return out;
 }
 
 }  // namespace palletd::testing

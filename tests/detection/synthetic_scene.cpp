@@ -10,8 +10,6 @@
 namespace palletd::testing {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 /// Ray (origin o, direction r) against a yawed cuboid; returns t of the entry or +inf.
 double hit_box(const SynthBox& b, const Eigen::Vector3d& o, const Eigen::Vector3d& r) {
   const double c = std::cos(-b.yaw_rad), s = std::sin(-b.yaw_rad);
@@ -54,12 +52,12 @@ SynthFrame render_synthetic(const SynthScene& scene, const SynthCamera& cam, con
   out.frame.depth_scale_m = 1e-4;
   out.frame.depth.assign(out.frame.pixel_count(), 0);
 
-  const double tilt = cam.tilt_deg * kPi / 180.0, az = cam.tilt_azimuth_deg * kPi / 180.0;
+  const double tilt = cam.tilt_deg * M_PI / 180.0, az = cam.tilt_azimuth_deg * M_PI / 180.0;
   const Eigen::Vector3d forward(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), -std::cos(tilt));
   const Eigen::Vector3d origin = cam.look_at - forward * cam.distance_m;
   Eigen::Vector3d x = Eigen::Vector3d::UnitX() - forward * forward.x();
   x.normalize();
-  const double roll = cam.roll_deg * kPi / 180.0;
+  const double roll = cam.roll_deg * M_PI / 180.0;
   Eigen::Vector3d y = forward.cross(x);
   x = std::cos(roll) * x + std::sin(roll) * y;
   y = forward.cross(x);

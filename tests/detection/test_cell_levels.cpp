@@ -5,15 +5,17 @@
 
 #include <catch2/catch.hpp>
 
-#include "level_checks.hpp"
 #include "palletd/detection/detection.hpp"
 #include "palletd/sim/sim.hpp"
 
+#include "level_checks.hpp"
+#include "sim_block_layer.hpp"
+
 using namespace palletd;
+using palletd::testing::formats_of;
+using palletd::testing::kPalletTop_m;
 
 namespace {
-
-constexpr double kPalletTop_m = 0.144;  // the simulator's pallets (world = base frame)
 
 sim::SimulatedFrame render_family(sim::SceneFamily family, const std::string& profile_name,
                                   std::uint64_t seed, const std::string& format = "400x300x250",
@@ -28,12 +30,6 @@ sim::SimulatedFrame render_family(sim::SceneFamily family, const std::string& pr
   const Expected<sim::Scene> scene = sim::make_scene(options, profile, seed);
   REQUIRE(scene);
   return sim::render(*scene, profile, seed);
-}
-
-std::vector<BoxFormat> formats_of(const sim::SimulatedFrame& f, double height_m = 0.0) {
-  std::vector<BoxFormat> out;
-  for (const auto& r : f.scene.recipe) out.push_back(BoxFormat{r.long_m, r.short_m, r.name, height_m});
-  return out;
 }
 
 }  // namespace

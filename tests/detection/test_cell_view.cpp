@@ -8,11 +8,13 @@
 #include "palletd/detection/detection.hpp"
 #include "palletd/sim/sim.hpp"
 
+#include "sim_block_layer.hpp"
+
 using namespace palletd;
+using palletd::testing::kPalletTop_m;
 
 namespace {
 
-constexpr double kPalletTop_m = 0.144;  // the simulator's pallets (world = base frame)
 constexpr double kCartonHeight_m = 0.25;
 
 sim::SimBox carton(const Eigen::Vector2d& center_m) {

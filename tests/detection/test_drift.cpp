@@ -11,10 +11,9 @@ using namespace palletd;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::uint64_t kReferenceNoise = 100, kLaterNoise = 200;  // render seeds
 
-sim::SimBox standing_box(const Eigen::Vector2d& center_m, double long_m, double short_m, double top_z_m) {
+sim::SimBox standing_carton(const Eigen::Vector2d& center_m, double long_m, double short_m, double top_z_m) {
   sim::SimBox b;
   b.center = center_m;
   b.long_m = long_m;
@@ -36,9 +35,9 @@ sim::Scene make_cell(sim::SceneFamily family, const std::string& profile_name = 
   options.lower_layers_min = options.lower_layers_max = 1;
   sim::Scene scene = *sim::make_scene(options, profile, 3);
   if (family != sim::SceneFamily::kIsolated) {
-    scene.boxes.push_back(standing_box(Eigen::Vector2d(1.3, -0.2), 0.6, 0.5, 1.6));
-    scene.boxes.push_back(standing_box(Eigen::Vector2d(-1.0, 0.9), 0.1, 0.1, 1.8));
-    scene.boxes.push_back(standing_box(Eigen::Vector2d(0.9, 0.9), 0.1, 0.1, 1.8));
+    scene.boxes.push_back(standing_carton(Eigen::Vector2d(1.3, -0.2), 0.6, 0.5, 1.6));
+    scene.boxes.push_back(standing_carton(Eigen::Vector2d(-1.0, 0.9), 0.1, 0.1, 1.8));
+    scene.boxes.push_back(standing_carton(Eigen::Vector2d(0.9, 0.9), 0.1, 0.1, 1.8));
   }
   scene.T_world_camera =
       sim::camera_looking_at(Eigen::Vector3d(-0.4, -0.5, 3.3), Eigen::Vector3d(0.2, 0.1, 0.0));
@@ -63,7 +62,7 @@ Frame render(const sim::Scene& scene, std::uint64_t noise_seed, const std::strin
 /// by `shift_m`: T_reference_camera of the moved camera.
 Eigen::Isometry3d bump(double angle_deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& shift_m) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(angle_deg * kPi / 180.0, axis.normalized()).toRotationMatrix();
+  T.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis.normalized()).toRotationMatrix();
   T.translation() = shift_m;
   return T;
 }
@@ -78,7 +77,7 @@ Frame render_bumped(const sim::Scene& scene, const Eigen::Isometry3d& T_referenc
   return frame;
 }
 
-double angle_deg(const Eigen::Isometry3d& T) { return Eigen::AngleAxisd(T.linear()).angle() * 180.0 / kPi; }
+double angle_deg(const Eigen::Isometry3d& T) { return Eigen::AngleAxisd(T.linear()).angle() * 180.0 / M_PI; }
 
 DriftReference reference_of(const sim::Scene& scene, const std::string& profile_name = "o3d303") {
   const Expected<DriftReference> reference =
@@ -161,7 +160,7 @@ TEST_CASE("drift: another load on the pallet and a person in the cell leave it a
       box.yaw_rad += 0.3;  // turned boxes
   }
   // A person beside the pallet, outside the load volume, where the reference saw the floor.
-  later.boxes.push_back(standing_box(Eigen::Vector2d(0.2, -0.8), 0.45, 0.3, 1.75));
+  later.boxes.push_back(standing_carton(Eigen::Vector2d(0.2, -0.8), 0.45, 0.3, 1.75));
   const DriftEstimate e = measure_drift(render(later, kLaterNoise), reference);
   INFO(e.message << " / " << e.observability.note);
   REQUIRE(e.measured);
@@ -202,7 +201,7 @@ TEST_CASE("drift: a floor alone shows the tilt, not a shift along it", "[drift]"
   }
   const Eigen::Vector3d up_current = T_world_current.linear().transpose() * Eigen::Vector3d::UnitZ();
   CHECK(std::acos(std::min(1.0, (e.T_reference_camera.linear() * up_current).dot(up_reference))) * 180.0 /
-            kPi <
+            M_PI <
         0.05);
 }
 

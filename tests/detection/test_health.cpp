@@ -9,7 +9,10 @@
 #include "palletd/detection/health.hpp"
 #include "palletd/sim/sim.hpp"
 
+#include "sim_block_layer.hpp"
+
 using namespace palletd;
+using palletd::testing::formats_of;
 
 namespace {
 
@@ -40,12 +43,6 @@ sim::SimulatedFrame render_block(std::uint64_t seed, const sim::RenderOptions& r
   const Expected<sim::Scene> scene = sim::make_scene(options, profile, seed);
   REQUIRE(scene);
   return sim::render(*scene, profile, seed, render);
-}
-
-std::vector<BoxFormat> formats_of(const sim::SimulatedFrame& f) {
-  std::vector<BoxFormat> out;
-  for (const auto& r : f.scene.recipe) out.push_back(BoxFormat{r.long_m, r.short_m, r.name, 0.0});
-  return out;
 }
 
 }  // namespace

@@ -21,16 +21,10 @@ using palletd::testing::describe;
 using palletd::testing::nearest;
 using palletd::testing::walk;
 
-namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-}  // namespace
-
 TEST_CASE("a short tilted step riser at a coarse pitch follows the grid", "[layer][simplify]") {
   const double pitch = 0.020;  // [m]
   const double tilt_m = GENERATE(0.006, -0.007);  // riser end offset across it [m]: 7-8 degrees over 0.1 m
-  const double yaw = GENERATE(0.0, 43.4 * kPi / 180.0);
+  const double yaw = GENERATE(0.0, 43.4 * M_PI / 180.0);
   const Eigen::Vector2d u(std::cos(yaw), std::sin(yaw)), w(-std::sin(yaw), std::cos(yaw));
   const Eigen::Vector2d o(-0.30, -0.20);
   auto at = [&](double a, double b) -> Eigen::Vector2d { return o + a * u + b * w; };
@@ -53,7 +47,7 @@ TEST_CASE("a short tilted step riser at a coarse pitch follows the grid", "[laye
 
 TEST_CASE("a chamfered corner between two edges keeps its diagonal at a coarse pitch", "[layer][simplify]") {
   const double pitch = 0.020;  // [m]
-  const double yaw = 43.4 * kPi / 180.0;
+  const double yaw = 43.4 * M_PI / 180.0;
   const Eigen::Vector2d u(std::cos(yaw), std::sin(yaw)), w(-std::sin(yaw), std::cos(yaw));
   auto at = [&](double a, double b) -> Eigen::Vector2d { return a * u + b * w; };
   // A 0.6 x 0.4 m layer with a step and a 0.1 m chamfer (5 pitches along each side) at (0.6, 0).

@@ -12,7 +12,6 @@ using namespace palletd::testing;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kBoxArea = 0.315 * 0.232;
 
 LayerResult run(const SynthFrame& f, LayerTrace* trace = nullptr, LayerParams lp = {}) {
@@ -20,7 +19,7 @@ LayerResult run(const SynthFrame& f, LayerTrace* trace = nullptr, LayerParams lp
 }
 
 double normal_error_deg(const Plane& a, const Plane& b) {
-  return std::acos(std::clamp(a.normal.dot(b.normal), -1.0, 1.0)) * 180.0 / kPi;
+  return std::acos(std::clamp(a.normal.dot(b.normal), -1.0, 1.0)) * 180.0 / M_PI;
 }
 
 double height_error_m(const LayerResult& r, const Plane& truth) {
@@ -83,7 +82,7 @@ TEST_CASE("a single box gives four near-orthogonal corners close to the truth") 
   for (std::size_t k = 0; k < 4; ++k) {
     const Eigen::Vector2d e0 = (ring[(k + 1) % 4] - ring[k]).normalized();
     const Eigen::Vector2d e1 = (ring[(k + 2) % 4] - ring[(k + 1) % 4]).normalized();
-    CHECK(std::abs(e0.dot(e1)) < std::sin(1.0 * kPi / 180.0));
+    CHECK(std::abs(e0.dot(e1)) < std::sin(1.0 * M_PI / 180.0));
   }
 }
 
@@ -92,7 +91,7 @@ TEST_CASE("a hole 1.5 pixel pitches wide is found, clusters 30 mm apart stay apa
   // bridge it (the benchmark's sweep shows the tilted case).
   const SynthCamera cam = camera_looking_at(1.0, 0.0);
   // Largest pixel footprint on the layer (tilt stretches it by 1 / cos(tilt)).
-  const double pitch_m = cam.distance_m / cam.fx / std::cos(cam.tilt_deg * kPi / 180.0);
+  const double pitch_m = cam.distance_m / cam.fx / std::cos(cam.tilt_deg * M_PI / 180.0);
   // A ring of 8 boxes around a centre box shrunk so that a gap of 1.5 pitches surrounds it: the
   // gap is a hole of the outer component.
   SynthScene ring = grid_layer(3, 3, 0.0, 1.0, true);
@@ -159,8 +158,8 @@ TEST_CASE("clusters at a tilt: apart when the gap shows more than the band below
   // is deeper than the band, depth cannot separate them (the layout search splits such a cluster).
   // Azimuth 0, looking along the boxes' long axis: the gap's wall faces the camera.
   const SynthCamera cam = camera_looking_at(1.0, 20.0, 0.0);
-  const double tan_tilt = std::tan(cam.tilt_deg * kPi / 180.0);
-  const double pitch_m = cam.distance_m / cam.fx / std::cos(cam.tilt_deg * kPi / 180.0);
+  const double tan_tilt = std::tan(cam.tilt_deg * M_PI / 180.0);
+  const double pitch_m = cam.distance_m / cam.fx / std::cos(cam.tilt_deg * M_PI / 180.0);
   // Band from a first look at the scene (the detector measures it from the data).
   const SynthFrame probe = render_synthetic(grid_layer(2, 1, 0.05, 1.0, true), cam, SynthNoise{});
   const LayerResult p = run(probe);

@@ -22,10 +22,10 @@ using namespace palletd::testing;
 
 namespace {
 
-constexpr double kBoxArea = 0.315 * 0.232;
+constexpr double kCartonArea = 0.315 * 0.232;
 
-LayerResult run(const SynthFrame& f, LayerParams lp = {}, LayerTrace* trace = nullptr) {
-  return extract_layer(f.frame, f.cloud, PlaneParams{}, lp, ContourParams{}, 0.5 * kBoxArea, trace);
+LayerResult run_layer(const SynthFrame& f, LayerParams lp = {}, LayerTrace* trace = nullptr) {
+  return extract_layer(f.frame, f.cloud, PlaneParams{}, lp, ContourParams{}, 0.5 * kCartonArea, trace);
 }
 
 double segment_distance(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& q) {
@@ -132,7 +132,7 @@ TEST_CASE("coarse pitch at a tilt: edges facing away from the camera are not pul
     cam.fx = cam.fy = 152.0;
     cam.distance_m = 2.5;
     const SynthFrame f = render_synthetic(s, cam, quiet);
-    const LayerResult r = run(f);
+    const LayerResult r = run_layer(f);
     INFO("azimuth " << azimuth << " reason " << r.reason);
     REQUIRE(r.status == DetectionStatus::kOk);
     REQUIRE(r.polygons.size() == 1);
@@ -161,7 +161,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
   const SynthCamera cam = camera_looking_at(1.0);
   const SynthFrame full = render_synthetic(scene, cam, SynthNoise{});
   LayerTrace trace;
-  const LayerResult observed = run(full, {}, &trace);
+  const LayerResult observed = run_layer(full, {}, &trace);
   REQUIRE(observed.status == DetectionStatus::kOk);
   // 2 % random dropouts beside the outline are no unobserved outline.
   CHECK(observed.diagnostics.unobserved_outline_fraction < 0.01);
@@ -184,7 +184,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
     for (int v = 0; v < cam.height; ++v)
       for (int u = cut; u < cam.width; ++u) f.frame.depth[static_cast<std::size_t>(v * cam.width + u)] = 0;
     rebuild_cloud(f);
-    const LayerResult r = run(f);
+    const LayerResult r = run_layer(f);
     REQUIRE(r.status == DetectionStatus::kOk);
     INFO("fraction " << r.diagnostics.unobserved_outline_fraction);
     CHECK(r.diagnostics.unobserved_outline_fraction > 0.15);
@@ -200,7 +200,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
     CHECK(d_full.message.empty());
     LayerParams strict;
     strict.reject_unobserved = true;
-    const LayerResult rejected = run(f, strict);
+    const LayerResult rejected = run_layer(f, strict);
     CHECK(rejected.status == DetectionStatus::kNoLayer);
     CHECK(rejected.reason.find("without depth") != std::string::npos);
   }
@@ -213,7 +213,7 @@ TEST_CASE("outline along invalid pixels: flagged when the depth ends, not for a 
         f.frame.depth[static_cast<std::size_t>(v * cam.width + u)] = 0;
     }
     rebuild_cloud(f);
-    const LayerResult r = run(f);
+    const LayerResult r = run_layer(f);
     REQUIRE(r.status == DetectionStatus::kOk);
     INFO("fraction " << r.diagnostics.unobserved_outline_fraction);
     CHECK(r.diagnostics.unobserved_outline_fraction < 0.01);

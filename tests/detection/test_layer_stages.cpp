@@ -14,7 +14,6 @@ using namespace palletd;
 using namespace palletd::testing;
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 
 /// Points along a w x h rectangle's outline every `step` [m], CCW from the origin corner.
 std::vector<Eigen::Vector2d> rectangle_outline(double w, double h, double step) {
@@ -126,7 +125,7 @@ TEST_CASE("simplify: a noisy rotated rectangle becomes four corners within a mil
   for (std::size_t k = 0; k < 4; ++k) {
     const Eigen::Vector2d e0 = (poly[(k + 1) % 4] - poly[k]).normalized();
     const Eigen::Vector2d e1 = (poly[(k + 2) % 4] - poly[(k + 1) % 4]).normalized();
-    CHECK(std::abs(e0.dot(e1)) < std::sin(0.1 * kPi / 180.0));
+    CHECK(std::abs(e0.dot(e1)) < std::sin(0.1 * M_PI / 180.0));
   }
 }
 
@@ -146,7 +145,7 @@ TEST_CASE("top plane: nearest large plane wins, a small stray in front does not"
   const layer::TopPlane top = layer::find_top_plane(f.cloud, f.frame.intrinsics, PlaneParams{});
   REQUIRE(top.status == DetectionStatus::kOk);
   CHECK(std::abs(top.plane.d - f.top_plane_camera.d) < 0.003);
-  CHECK(top.plane.normal.dot(f.top_plane_camera.normal) > std::cos(0.5 * kPi / 180.0));
+  CHECK(top.plane.normal.dot(f.top_plane_camera.normal) > std::cos(0.5 * M_PI / 180.0));
   CHECK(top.sigma_m < 0.004);
   // The RANSAC seed changes the samples drawn, not the plane found.
   for (const std::uint32_t seed : {1U, 2U, 99U}) {

@@ -8,12 +8,6 @@
 using namespace palletd;
 using Catch::Contains;
 
-namespace {
-
-test::ConfigFailure failure_of(const std::string& text) { return test::config_failure_of(text); }
-
-}  // namespace
-
 TEST_CASE("gripper: every key parses, and null or absent means no gripper") {
   const Config c = parse_config(R"(
 gripper:
@@ -52,34 +46,38 @@ gripper:
 }
 
 TEST_CASE("gripper: bad values name the key and the line") {
-  const test::ConfigFailure missing = failure_of("gripper:\n  max_boxes: 2\n");
+  const test::ConfigFailure missing = test::config_failure_of("gripper:\n  max_boxes: 2\n");
   CHECK(missing.key == "gripper");
   CHECK_THAT(missing.what, Contains("footprint_mm"));
   CHECK(missing.line == 2);
 
-  const test::ConfigFailure length = failure_of("pipeline: {}\ngripper:\n  footprint_mm: [400]\n");
+  const test::ConfigFailure length =
+      test::config_failure_of("pipeline: {}\ngripper:\n  footprint_mm: [400]\n");
   CHECK(length.line == 3);
   CHECK(length.key == "gripper.footprint_mm");
   CHECK_THAT(length.what, Contains("2 numbers"));
 
-  const test::ConfigFailure zero = failure_of("gripper:\n  footprint_mm: [400, 0]\n");
+  const test::ConfigFailure zero = test::config_failure_of("gripper:\n  footprint_mm: [400, 0]\n");
   CHECK(zero.key == "gripper.footprint_mm[1]");
   CHECK(zero.line == 2);
 
-  const test::ConfigFailure boxes = failure_of("gripper:\n  footprint_mm: [400, 300]\n  max_boxes: 0\n");
+  const test::ConfigFailure boxes =
+      test::config_failure_of("gripper:\n  footprint_mm: [400, 300]\n  max_boxes: 0\n");
   CHECK(boxes.key == "gripper.max_boxes");
   CHECK(boxes.line == 3);
 
-  const test::ConfigFailure yaw = failure_of("gripper:\n  footprint_mm: [400, 300]\n  yaw_limits_deg: [90, -90]\n");
+  const test::ConfigFailure yaw =
+      test::config_failure_of("gripper:\n  footprint_mm: [400, 300]\n  yaw_limits_deg: [90, -90]\n");
   CHECK(yaw.key == "gripper.yaw_limits_deg");
   CHECK(yaw.line == 3);
   CHECK_THAT(yaw.what, Contains("below the maximum"));
 
-  const test::ConfigFailure unknown = failure_of("gripper:\n  footprint_mm: [400, 300]\n  suction_cups: 4\n");
+  const test::ConfigFailure unknown =
+      test::config_failure_of("gripper:\n  footprint_mm: [400, 300]\n  suction_cups: 4\n");
   CHECK(unknown.line == 3);
   CHECK_THAT(unknown.what, Contains("suction_cups"));
 
-  const test::ConfigFailure shape = failure_of("gripper: [400, 300]\n");
+  const test::ConfigFailure shape = test::config_failure_of("gripper: [400, 300]\n");
   CHECK(shape.key == "gripper");
   CHECK(shape.line == 1);
 }
@@ -92,10 +90,11 @@ TEST_CASE("check: the pick check's tolerances parse, default to 5 mm and 1 degre
   CHECK(c.check.tolerance_mm == 8.0);
   CHECK(c.check.tolerance_deg == 2.5);
   CHECK(config_differences(defaults, c) == std::vector<std::string>{"check.tolerance_mm", "check.tolerance_deg"});
-  const test::ConfigFailure negative = failure_of("pipeline: {}\ncheck:\n  tolerance_mm: -3\n");
+  const test::ConfigFailure negative = test::config_failure_of("pipeline: {}\ncheck:\n  tolerance_mm: -3\n");
   CHECK(negative.line == 3);
   CHECK(negative.key == "check.tolerance_mm");
-  const test::ConfigFailure unknown = failure_of("check:\n  tolerance_deg: 1\n  tolerence_mm: 4\n");
+  const test::ConfigFailure unknown =
+      test::config_failure_of("check:\n  tolerance_deg: 1\n  tolerence_mm: 4\n");
   CHECK(unknown.line == 3);
   CHECK_THAT(unknown.what, Contains("tolerence_mm"));
 }

@@ -31,7 +31,7 @@ Eigen::Vector2d project(const Intrinsics& in, const Eigen::Vector3d& p) {
 
 bool beyond(const CutScene& s, double u, double v) { return u > s.u0 + 0.25 * (v - s.frame.intrinsics.cy); }
 
-double seen_share(const CutScene& s, const TruthBox& b) {
+double seen_share(const CutScene& s, const palletd::TruthBox& b) {
   const Eigen::Vector3d across = b.normal.cross(b.long_axis).normalized();
   int n = 0, seen = 0;
   for (int i = 0; i < 20; ++i) {
@@ -57,7 +57,7 @@ CutScene cut_scene(const std::string& name) {
   s.frame = std::move(frame).value();
   s.truth = std::move(truth).value();
   for (const auto& mm : s.truth.recipe_mm) s.formats.push_back({mm[0] / 1000.0, mm[1] / 1000.0, ""});
-  const TruthBox* right = nullptr;
+  const palletd::TruthBox* right = nullptr;
   double right_u = -1e9;
   for (const auto& b : s.truth.boxes) {
     const double u = project(s.frame.intrinsics, b.center).x();
@@ -114,7 +114,7 @@ TEST_CASE("depth ending across the layer: the boxes it cuts are completed at the
     bool right = true;
     std::size_t flagged = 0;
     for (std::size_t t = 0; t < s.truth.boxes.size(); ++t) {
-      const TruthBox& tb = s.truth.boxes[t];
+      const palletd::TruthBox& tb = s.truth.boxes[t];
       const DetectedBox* near = nullptr;
       for (const auto& b : d.boxes)
         if ((b.center - tb.center).norm() < 0.015 &&

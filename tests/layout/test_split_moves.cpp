@@ -14,7 +14,7 @@ using namespace palletd::layout_detail;
 
 namespace {
 
-const std::vector<BoxFormat> kFormats{{0.315, 0.232, "315x232"}, {0.5, 0.35, "500x350"}};
+const std::vector<BoxFormat> kSplitFormats{{0.315, 0.232, "315x232"}, {0.5, 0.35, "500x350"}};
 constexpr double kGap_m = 0.006;  ///< between the cartons
 /// Where the two cartons of a column meet: the middle of the 500 x 350 laid over them [m].
 constexpr double kMiddle_y = 0.232 + kGap_m / 2;
@@ -23,7 +23,7 @@ constexpr double kMergeTol_m = 0.014;
 /// Two columns of two 315 x 232 cartons, kGap_m apart; `left_one_box`: the left column is one
 /// 500 x 350 carton instead (long side along y, centred on where the two would stand).
 KnownLayout columns(bool left_one_box) {
-  KnownLayout l{"columns", kFormats, {}, 0.0, Eigen::Vector2d::Zero(), 0.0};
+  KnownLayout l{"columns", kSplitFormats, {}, 0.0, Eigen::Vector2d::Zero(), 0.0};
   double right_x = 0.315 + kGap_m;
   const double upper_y = 0.232 + kGap_m;
   if (left_one_box) {
@@ -65,7 +65,7 @@ std::vector<FrameBox> settled(const KnownLayout& truth, const std::vector<FrameB
   judge.min_short_m = 0.232;
   judge.merge_tol_m = kMergeTol_m;
   judge.absent_cap_nats = 0.9 * SeamLikelihood::decisive_nats(judge.min_short_m);
-  *tied = settle_footprint_moves(best, {best}, {0}, frames, kFormats, judge, LayoutParams{});
+  *tied = settle_footprint_moves(best, {best}, {0}, frames, kSplitFormats, judge, LayoutParams{});
   return best.boxes;
 }
 
@@ -73,7 +73,7 @@ std::vector<FrameBox> settled(const KnownLayout& truth, const std::vector<FrameB
 
 TEST_CASE("split moves: the two cartons a larger box of the recipe covers with their gaps") {
   const std::vector<FrameBox> boxes = big_box_left();
-  const std::vector<FootprintMove> moves = split_moves(boxes, kFormats, kMergeTol_m, 0.054);
+  const std::vector<FootprintMove> moves = split_moves(boxes, kSplitFormats, kMergeTol_m, 0.054);
   REQUIRE_FALSE(moves.empty());
   for (const FootprintMove& m : moves) {
     CHECK(m.remove == std::vector<std::size_t>{0});  // only the 500 x 350 holds two cartons
@@ -87,7 +87,7 @@ TEST_CASE("split moves: the two cartons a larger box of the recipe covers with t
     CHECK(m.add[0].rect.y1 <= m.add[1].rect.y0 + 1e-9);
   }
   // A slack smaller than what the box has to spare: no split.
-  CHECK(split_moves(boxes, kFormats, kMergeTol_m, 0.02).empty());
+  CHECK(split_moves(boxes, kSplitFormats, kMergeTol_m, 0.02).empty());
   // Two cartons side by side along a box's long middle (where the flaps' tape runs): no split.
   const std::vector<BoxFormat> halves{{0.6, 0.4, "600x400"}, {0.6, 0.19, "600x190"}};
   CHECK(split_moves({{{0.0, 0.0, 0.6, 0.4}, 0, true}}, halves, kMergeTol_m, 0.054).empty());

@@ -17,7 +17,7 @@ using namespace palletd::layout_detail;
 
 namespace {
 
-constexpr double kNoCap = std::numeric_limits<double>::infinity();
+constexpr double kTapeUncapped = std::numeric_limits<double>::infinity();
 constexpr float kBoard = 1000.f;  ///< the board's intensity [counts]
 
 /// Where a line of `width_m` runs along the middle of `box` (its long axis), offset by offset_m.
@@ -69,7 +69,7 @@ TEST_CASE("tape: a band along one carton's middle decides a pinwheel against its
     std::fill(seams.seam.begin(), seams.seam.end(), 0.f);
     const auto outline = union_outline(l);
     REQUIRE(outline.size() == 1);
-    SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012, kNoCap);
+    SeamLikelihood lik(seams, LayoutFrame{}, outline.front(), 0.01, 0.012, kTapeUncapped);
     CHECK_FALSE(lik.calibrate({&right, &other}));
     REQUIRE(lik.reads_tape());
     CHECK(lik.compare(right, other) > SeamLikelihood::decisive_nats(0.3));

@@ -34,6 +34,12 @@ extern char** environ;
 
 namespace palletd::test {
 
+/// How much longer the tests' deadlines are in this build (8 under the sanitizers, else 1).
+inline constexpr int kTimeScale = PALLETD_TEST_TIME_SCALE;
+
+/// `d` stretched for sanitizer builds.
+inline std::chrono::milliseconds scaled(std::chrono::milliseconds d) { return d * kTimeScale; }
+
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 

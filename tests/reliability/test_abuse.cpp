@@ -19,13 +19,6 @@ namespace {
 using palletd::modbus::test::RawClient;
 using palletd::modbus::test::RawClientOptions;
 
-constexpr double kTimeScale = PALLETD_TEST_TIME_SCALE;
-
-/// `d` stretched for sanitizer builds.
-std::chrono::milliseconds scaled(std::chrono::milliseconds d) {
-  return std::chrono::milliseconds(static_cast<long>(static_cast<double>(d.count()) * kTimeScale));
-}
-
 /// How long an answer may take.
 const std::chrono::milliseconds kAnswer = scaled(2000ms);
 

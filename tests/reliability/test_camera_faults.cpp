@@ -24,13 +24,6 @@ using namespace palletd::modbus;
 namespace {
 
 constexpr int kWidth = 96, kHeight = 72;
-constexpr double kTimeScale = PALLETD_TEST_TIME_SCALE;
-
-/// `d` stretched for sanitizer builds.
-std::chrono::milliseconds scaled(std::chrono::milliseconds d) {
-  return std::chrono::milliseconds(static_cast<long>(static_cast<double>(d.count()) * kTimeScale));
-}
-
 /// The fake camera's own GenICam XML plus Coord3D_C16 and the Scan3d features the driver reads
 /// (as tests/drivers/test_aravis.cpp builds it).
 std::string genicam_xml(const fs::path& dir) {

@@ -11,9 +11,7 @@
 
 using namespace palletd::test;
 
-namespace {
-constexpr int kTimeScale = PALLETD_TEST_TIME_SCALE;
-}  // namespace
+namespace {}  // namespace
 
 TEST_CASE("32 pollers at 100 Hz while the PLC triggers every 200 ms: every handshake completes - no request unanswered") {
   TempDir dir("load");

@@ -16,10 +16,9 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-constexpr int kTimeScale = PALLETD_TEST_TIME_SCALE;
-
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-std::chrono::milliseconds scaled(std::chrono::milliseconds t) { return t * kTimeScale; }
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
 
 /// Every recording in `dir` is a whole frame: depth PNG and metadata read back; nothing in .partial.
 void check_recordings_whole(const fs::path& dir) {

@@ -2,6 +2,7 @@
 // drift reference set with control bit 4 over a real Modbus TCP client, and the health block
 // 146..155 and status word bits 9 and 10 read back after triggers.
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <thread>
 
@@ -21,8 +22,6 @@ using namespace palletd;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 struct TempDir {
   fs::path dir = fs::temp_directory_path() /
                  ("palletd-health-" + std::to_string(::getpid()) + "-" +
@@ -40,7 +39,7 @@ Frame cell_frame(const sim::Scene& scene, std::uint64_t seed, double turn_deg) {
   const sim::SensorProfile profile = *sim::profile_by_name("o3d303");
   sim::Scene moved = scene;
   moved.T_world_camera =
-      scene.T_world_camera * Eigen::AngleAxisd(turn_deg * kPi / 180.0, Eigen::Vector3d::UnitX());
+      scene.T_world_camera * Eigen::AngleAxisd(turn_deg * M_PI / 180.0, Eigen::Vector3d::UnitX());
   Frame frame = sim::render(moved, profile, seed).frame;
   frame.T_base_camera = scene.T_world_camera;
   return frame;

@@ -23,12 +23,12 @@ using namespace palletd;
 
 namespace {
 
-struct TempDir {
+struct PickCheckDir {
   fs::path dir = fs::temp_directory_path() /
                  ("palletd-pickcheck-" + std::to_string(::getpid()) + "-" +
                   std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
-  TempDir() { fs::create_directories(dir); }
-  ~TempDir() {
+  PickCheckDir() { fs::create_directories(dir); }
+  ~PickCheckDir() {
     std::error_code ec;
     fs::remove_all(dir, ec);
   }
@@ -107,7 +107,7 @@ std::size_t nearest_standing(const sim::Scene& scene, std::size_t k) {
 
 TEST_CASE("pick check over Modbus: a layer picked box by box, a dragged neighbour, then the next level",
           "[pick_check]") {
-  TempDir tmp;
+  PickCheckDir tmp;
   Cell cell(tmp.dir, 8123);
   // The frames the replay camera serves, worked out here the way the daemon will: the layer twice
   // (the first detection is spoilt by a check that names nothing); after each pick the layer

@@ -11,8 +11,6 @@
 namespace palletd::layer {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 /// Distance of q to the outline of the rectangle (centre, axis u, half extents h), from inside
 /// or outside.
 double rect_boundary_distance(const Eigen::Vector2d& q, const Eigen::Vector2d& centre, const Eigen::Vector2d& u,
@@ -55,7 +53,7 @@ bool fit_rectangle(const std::vector<Eigen::Vector2d>& samples, double pitch_m, 
   pts.reserve(samples.size());
   for (const auto& p : samples) pts.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
   const cv::RotatedRect box = cv::minAreaRect(pts);
-  double theta = static_cast<double>(box.angle) * kPi / 180.0;
+  double theta = static_cast<double>(box.angle) * M_PI / 180.0;
   Eigen::Vector2d centre(static_cast<double>(box.center.x), static_cast<double>(box.center.y));
   Eigen::Vector2d h(0.5 * static_cast<double>(box.size.width), 0.5 * static_cast<double>(box.size.height));
   if (std::min(h.x(), h.y()) < 2.0 * pitch_m) return false;
@@ -85,7 +83,7 @@ bool fit_rectangle(const std::vector<Eigen::Vector2d>& samples, double pitch_m, 
     }
     // The grid angle nearest the current one (angles modulo 90 degrees).
     const double grid = std::atan2(s4, c4) / 4.0;
-    theta = grid + std::round((theta - grid) / (kPi / 2.0)) * (kPi / 2.0);
+    theta = grid + std::round((theta - grid) / (M_PI / 2.0)) * (M_PI / 2.0);
     const Eigen::Vector2d u2(std::cos(theta), std::sin(theta)), v2(-u2.y(), u2.x());
     std::array<double, 4> offset{};
     for (std::size_t k = 0; k < 4; ++k) {

@@ -19,7 +19,6 @@
 namespace palletd::layer {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 /// Points RANSAC searches when PlaneParams::ransac_stride_px is 0 (about).
 constexpr double kRansacPoints = 2500.0;
 /// Fewest subsampled points worth a plane search.
@@ -439,7 +438,7 @@ TopPlane find_top_plane(const OrganizedCloud& cloud, const Intrinsics& intrinsic
   RansacInput in = ransac_input(cloud, params, result.valid_points);
   // Level layers when the calibration says which way is up; else planes facing the camera.
   in.axis = up_camera ? Eigen::Vector3f(up_camera->normalized().cast<float>()) : Eigen::Vector3f::UnitZ();
-  in.max_angle_rad = (up_camera ? params.max_base_tilt_deg : params.max_tilt_deg) * kPi / 180.0;
+  in.max_angle_rad = (up_camera ? params.max_base_tilt_deg : params.max_tilt_deg) * M_PI / 180.0;
   if (in.points->size() < kMinRansacPoints) {
     result.reason = "too few valid points for a plane search (" + std::to_string(in.points->size()) +
                     " after subsampling)";

@@ -10,13 +10,12 @@
 namespace palletd::layer {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 /// Farthest a corner moves from its vertex to the crossing of its two long lines [pitches]:
 /// beyond it the crossing is no blunted corner but a missing piece the samples would show.
 constexpr double kMaxCornerPull = 10.0;
 /// Widest angle [rad] by which a short step riser between two edges across it is snapped onto
 /// the grid (its direction's uncertainty, atan(pitch / length), capped).
-constexpr double kMaxRiserSnap = 20.0 * kPi / 180.0;
+constexpr double kMaxRiserSnap = 20.0 * M_PI / 180.0;
 /// Smallest simplification tolerance [m].
 constexpr double kMinTolerance_m = 1e-4;
 /// Smallest Douglas-Peucker tolerance [pitches]: the ring's border pixel centres stray about this
@@ -134,13 +133,13 @@ Eigen::Vector2d corner_at(const std::vector<FittedLine>& lines, const std::vecto
 void recover_corners(std::vector<FittedLine>& lines, std::vector<Eigen::Vector2d>& v,
                      const std::vector<Eigen::Vector2d>& samples, double pitch_m, double far,
                      double grid_rad) {
-  const double max_cos = std::sin(10.0 * kPi / 180.0);
+  const double max_cos = std::sin(10.0 * M_PI / 180.0);
   // A long line is a fitted edge along the ring's grid; the edges between two of them may be
   // anything else (short, or off the grid: a pixel run).
   auto is_long = [&](const FittedLine& l) {
     if (!l.fitted || l.samples.size() < 5 || l.length < 4.0 * pitch_m) return false;
     const double a = std::atan2(l.dir.y(), l.dir.x()) - grid_rad;
-    return std::abs(a - std::round(a / (kPi / 2.0)) * (kPi / 2.0)) < 6.0 * kPi / 180.0;
+    return std::abs(a - std::round(a / (M_PI / 2.0)) * (M_PI / 2.0)) < 6.0 * M_PI / 180.0;
   };
   bool changed = true;
   while (changed && lines.size() > 4) {
@@ -217,7 +216,7 @@ class RingGrid {
   /// Unit direction of the grid axis nearest the direction `dir`.
   [[nodiscard]] Eigen::Vector2d axis_near(const Eigen::Vector2d& dir) const {
     const double a = std::atan2(dir.y(), dir.x());
-    const double axis = angle_rad_ + std::round((a - angle_rad_) / (kPi / 2.0)) * (kPi / 2.0);
+    const double axis = angle_rad_ + std::round((a - angle_rad_) / (M_PI / 2.0)) * (M_PI / 2.0);
     return Eigen::Vector2d(std::cos(axis), std::sin(axis));
   }
 
@@ -226,8 +225,8 @@ class RingGrid {
   void snap(FittedLine& line, double widen_rad) const {
     if (line.samples.size() < 3 || snap_rad_ <= 0.0) return;
     const double a = std::atan2(line.dir.y(), line.dir.x());
-    const double q = std::round((a - angle_rad_) / (kPi / 2.0));
-    const double target = angle_rad_ + q * kPi / 2.0;
+    const double q = std::round((a - angle_rad_) / (M_PI / 2.0));
+    const double target = angle_rad_ + q * M_PI / 2.0;
     if (std::abs(a - target) > std::max(snap_rad_, widen_rad)) return;
     line.dir = Eigen::Vector2d(std::cos(target), std::sin(target));
     Eigen::Vector2d mean = Eigen::Vector2d::Zero();
@@ -309,8 +308,8 @@ void snap_risers(std::vector<FittedLine>& lines, const RingGrid& grid, const Rin
     const FittedLine& before = lines[(k + lines.size() - 1) % lines.size()];
     const FittedLine& after = lines[(k + 1) % lines.size()];
     const Eigen::Vector2d g = grid.axis_near(lines[k].dir);
-    if (kPi / 2.0 - angle_between_dirs(g, before.dir) > scales.merge_rad ||
-        kPi / 2.0 - angle_between_dirs(g, after.dir) > scales.merge_rad)
+    if (M_PI / 2.0 - angle_between_dirs(g, before.dir) > scales.merge_rad ||
+        M_PI / 2.0 - angle_between_dirs(g, after.dir) > scales.merge_rad)
       continue;
     grid.snap(lines[k], std::min(std::atan2(scales.pitch_m, std::max(lines[k].length, 1e-9)), kMaxRiserSnap));
   }
@@ -411,7 +410,7 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
     return rect;
   }
   const double tol = std::max(params.simplify_tolerance_m, kMinTolerance_m);
-  const RingScales scales{pitch_m, tol, params.merge_angle_deg * kPi / 180.0};
+  const RingScales scales{pitch_m, tol, params.merge_angle_deg * M_PI / 180.0};
   // Corner candidates. The ring runs through border pixel centres: a straight edge is a
   // staircase whose centres stray up to about a pixel pitch from its chord (the fitted lines
   // place the edge).
@@ -426,7 +425,7 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
 
   // Near-grid lines snapped onto the grid, splits that are no corner merged, blunted corners
   // recovered.
-  const RingGrid grid(lines, params.snap_angle_deg * kPi / 180.0);
+  const RingGrid grid(lines, params.snap_angle_deg * M_PI / 180.0);
   for (auto& line : lines) grid.snap(line, 0.0);
   snap_risers(lines, grid, scales);
   merge_collinear(lines, v, grid, scales);

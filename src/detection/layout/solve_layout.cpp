@@ -114,7 +114,7 @@ const LayoutBox* neighbour_at(const std::vector<LayoutBox>& boxes, const LayoutB
 /// keeps the weaker seam as its join_seam.
 void mark_block_doubt(const std::vector<BoxFormat>& formats, const SeamEvidence& seams,
                       const LayoutParams& params, LayoutResult& result) {
-  constexpr double kReach_m = 0.015;  // the line's place: half the widest gap and a pose error
+  constexpr double kLineReach_m = 0.015;  // the line's place: half the widest gap and a pose error
   for (LayoutBox& b : result.boxes) {
     const auto fa = static_cast<std::size_t>(b.format);
     if (fa >= formats.size()) continue;
@@ -132,7 +132,7 @@ void mark_block_doubt(const std::vector<BoxFormat>& formats, const SeamEvidence&
         whole.long_m = formats[static_cast<std::size_t>(block)].long_m;
         whole.short_m = formats[static_cast<std::size_t>(block)].short_m;
         whole.format = block;
-        const double seam = layout_detail::seam_across_middle(whole, &seams, params, kReach_m);
+        const double seam = layout_detail::seam_across_middle(whole, &seams, params, kLineReach_m);
         b.evidence.join_seam = b.evidence.join_seam < 0 ? seam : std::min(b.evidence.join_seam, seam);
       }
     }

@@ -36,7 +36,7 @@ using pick_check::Grid;
 
 /// A box's top is looked for inside its outline inset by this much (its edges are rounded and
 /// the moved neighbours' overlap it).
-constexpr double kInset_m = 0.02;
+constexpr double kCheckInset_m = 0.02;
 /// Sides are looked for this far inward and outward of where they were.
 constexpr double kReach_m = 0.06;
 /// A move counts when it lies beyond 3 sigma of its estimate (squared Mahalanobis length).
@@ -145,7 +145,7 @@ void recheck_presence(const Grid& now, const std::vector<DetectedBox>& boxes, st
     BoxCheck& c = checks[i];
     if (c.moved || !c.present) continue;
     int seen_cells = 0;
-    const double share = pick_check::top_share(now, boxes[i].in_layer, kInset_m, seen_cells, moved);
+    const double share = pick_check::top_share(now, boxes[i].in_layer, kCheckInset_m, seen_cells, moved);
     if (seen_cells >= kMinSeenCells && share < 0.5) {
       c.present = false;
       c.seen_share = share;
@@ -218,7 +218,7 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
     c.box = static_cast<int>(i);
     c.picked = std::find(picked.begin(), picked.end(), c.box) != picked.end();
     int seen_cells = 0;
-    c.seen_share = pick_check::top_share(now, box.in_layer, kInset_m, seen_cells);
+    c.seen_share = pick_check::top_share(now, box.in_layer, kCheckInset_m, seen_cells);
     c.present = seen_cells < kMinSeenCells || c.seen_share >= 0.5;
     c.now = box;
     if (c.present && !c.picked) {

@@ -30,7 +30,7 @@ using Clock = std::chrono::steady_clock;
 /// Spread of a carton's measured side around the size it was laid out with [m]: the candidates'
 /// sizes come from seam spacings a few millimetres off, and their boxes measured off by that much
 /// lose little; a size the boxes do not show at all loses.
-constexpr double kSizeSigma_m = 0.02;
+constexpr double kUnknownSizeSigma_m = 0.02;
 
 struct Trial {
   BoxFormat tried;
@@ -69,7 +69,7 @@ Trial try_size(const SharedLayer& shared, const BoxFormat& size, const Detection
   for (auto [sides, nominal, measured] : {std::tuple(&longs, size.long_m, &t.measured.long_m),
                                           std::tuple(&shorts, size.short_m, &t.measured.short_m)}) {
     const double m = upper_median(*sides, -1.0);
-    const double z = m > 0.0 ? (m - nominal) / kSizeSigma_m : 0.4;  // unmeasured: 8 mm off
+    const double z = m > 0.0 ? (m - nominal) / kUnknownSizeSigma_m : 0.4;  // unmeasured: 8 mm off
     if (m > 0.0) *measured = m;
     z2 += z * z;
   }

@@ -28,8 +28,6 @@ using namespace palletd;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double thread_cpu_ms() {
   timespec ts{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
@@ -374,7 +372,9 @@ int main(int argc, char** argv) {
         dump();
       }
       st.height_mm.push_back(1000.0 * std::abs(f.truth.layer_plane.signed_distance(r.T_camera_layer.translation())));
-      st.normal_deg.push_back(std::acos(std::clamp(std::abs(r.plane_camera.normal.dot(f.truth.layer_plane.normal)), 0.0, 1.0)) * 180.0 / kPi);
+      st.normal_deg.push_back(
+          std::acos(std::clamp(std::abs(r.plane_camera.normal.dot(f.truth.layer_plane.normal)), 0.0, 1.0)) *
+          180.0 / M_PI);
     }
     print_row(profile, st);
     print_observed(st);

@@ -17,7 +17,7 @@ namespace palletd::layout_detail {
 namespace {
 
 constexpr double kEnd_m = 0.03;    ///< the middle line's ends left out (flap corners, bevels) [m]
-constexpr double kPiece_m = 0.02;  ///< the middle line is read in pieces of this length [m]
+constexpr double kTapePiece_m = 0.02;  ///< the middle line is read in pieces of this length [m]
 /// The band's two halves: from kBandIn_m to kBandOut_m either side of the middle line (a 48 mm
 /// band; the middle itself is left out, where the flaps' own gap may show as a dark line) [m].
 constexpr double kBandIn_m = 0.006, kBandOut_m = 0.022;
@@ -80,7 +80,7 @@ TapeEvidence::Band TapeEvidence::band_along(const FrameBox& box, double offset_m
   const double mid = (along_x ? 0.5 * (r.y0 + r.y1) : 0.5 * (r.x0 + r.x1)) + offset_m;
   const double half = 0.5 * (along_x ? r.y1 - r.y0 : r.x1 - r.x0);
   const double flank_out = std::min(kFlankOut_m, half - kFlankEnd_m - std::abs(offset_m));
-  const int n = static_cast<int>((a1 - a0) / kPiece_m);
+  const int n = static_cast<int>((a1 - a0) / kTapePiece_m);
   if (n < 5 || flank_out < kFlankIn_m + 2 * cell_) return {};
   const auto read = [&](double s0, double s1, double c0, double c1, bool* ok) {
     double seen = 0.0;
@@ -91,7 +91,7 @@ TapeEvidence::Band TapeEvidence::band_along(const FrameBox& box, double offset_m
   };
   std::vector<double> bands, halves, boards;
   for (int k = 0; k < n; ++k) {
-    const double s0 = a0 + k * kPiece_m, s1 = s0 + kPiece_m;
+    const double s0 = a0 + k * kTapePiece_m, s1 = s0 + kTapePiece_m;
     bool ok = true;
     const double lo = read(s0, s1, -kBandOut_m, -kBandIn_m, &ok),
                  hi = read(s0, s1, kBandIn_m, kBandOut_m, &ok);
@@ -192,7 +192,7 @@ double TapeEvidence::unexplained_band_m(const std::vector<FrameBox>& boxes) cons
     const double c_lo = (along_x ? y0_ : x0_) + kFlankOut_m;
     const double c_hi = (along_x ? y0_ + h_ * cell_ : x0_ + w_ * cell_) - kFlankOut_m;
     const double s_lo = along_x ? x0_ : y0_;
-    const int n = static_cast<int>(((along_x ? w_ : h_) * cell_) / kPiece_m);
+    const int n = static_cast<int>(((along_x ? w_ : h_) * cell_) / kTapePiece_m);
     const auto explained = [&](double c, double a0, double a1) {
       return std::any_of(boxes.begin(), boxes.end(), [&](const FrameBox& b) {
         const Rect& r = b.rect;
@@ -208,15 +208,17 @@ double TapeEvidence::unexplained_band_m(const std::vector<FrameBox>& boxes) cons
       for (int k = 0; k <= n; ++k) {
         double board = 0.0;
         const double band =
-            k < n ? band_piece(along_x, c, s_lo + k * kPiece_m, s_lo + (k + 1) * kPiece_m, &board) : 0.0;
+            k < n ? band_piece(along_x, c, s_lo + k * kTapePiece_m, s_lo + (k + 1) * kTapePiece_m, &board)
+                  : 0.0;
         const bool piece = band != 0.0 && std::abs(band) >= kMinContrast * board && band * sign >= 0.0;
         if (piece) {
           ++run;
           sign = band;
           continue;
         }
-        const double a1 = s_lo + k * kPiece_m, a0 = a1 - run * kPiece_m;
-        if (run * kPiece_m >= kMinRun_m - 1e-9 && !explained(c, a0, a1)) longest = std::max(longest, a1 - a0);
+        const double a1 = s_lo + k * kTapePiece_m, a0 = a1 - run * kTapePiece_m;
+        if (run * kTapePiece_m >= kMinRun_m - 1e-9 && !explained(c, a0, a1))
+          longest = std::max(longest, a1 - a0);
         run = band != 0.0 && std::abs(band) >= kMinContrast * board ? 1 : 0;  // a band of the other sign
         sign = run > 0 ? band : 0.0;
       }
