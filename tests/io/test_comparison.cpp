@@ -10,11 +10,7 @@ namespace {
 Detection layer(int boxes) {
   Detection d;
   d.status = DetectionStatus::kOk;
-  for (int i = 0; i < boxes; ++i) {
-    DetectedBox b;
-    b.center = Eigen::Vector3d(0.4 * i, 0.0, 1.5);
-    d.boxes.push_back(b);
-  }
+  for (int i = 0; i < boxes; ++i) d.boxes.emplace_back().center = Eigen::Vector3d(0.4 * i, 0.0, 1.5);
   return d;
 }
 
