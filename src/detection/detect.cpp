@@ -5,6 +5,7 @@
 #include <string>
 #include <utility>
 
+#include "palletd/core/timing.hpp"
 #include "palletd/detection/confidence.hpp"
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/picking.hpp"
@@ -52,8 +53,6 @@ bool is_failure(DetectionStatus status) {
 namespace {
 
 using Clock = DetectionEnd::Clock;
-
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 /// The most boxes one layer may hold: a 1.2 m x 1.2 m layer of 50 mm cartons. The stages after
 /// the budgeted search (ranking, completion, the joint refinement) grow with the box count; a

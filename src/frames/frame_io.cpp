@@ -21,7 +21,6 @@ using io_detail::get_string;
 
 namespace {
 
-const char* const kDepthSuffix = ".depth.png";
 const char* const kIntensitySuffix = ".intensity.png";
 const char* const kMetaSuffix = ".json";
 
@@ -153,7 +152,7 @@ Status read_metadata(const std::string& path, Frame& frame) {
 Expected<Frame> read_frame(const std::string& stem) {
   Frame frame;
   const std::string meta_path = stem + kMetaSuffix;
-  const std::string depth_path = stem + kDepthSuffix;
+  const std::string depth_path = stem + kDepthFileSuffix;
   const std::string intensity_path = stem + kIntensitySuffix;
 
   if (auto status = read_metadata(meta_path, frame); !status) return Error{status.error()};
@@ -237,7 +236,7 @@ std::string metadata_json(const Frame& frame) {
 
 Status write_frame(const std::string& stem, const Frame& frame) {
   const Intrinsics& k = frame.intrinsics;
-  const std::string where = stem + kDepthSuffix;
+  const std::string where = stem + kDepthFileSuffix;
   if (!k.valid()) return Error{where + ": cannot write a frame with invalid intrinsics"};
   if (!(frame.depth_scale_m > 0.0)) return Error{where + ": cannot write a frame with non-positive depth_scale"};
   if (frame.depth.size() != frame.pixel_count())
@@ -283,7 +282,7 @@ Expected<std::vector<std::string>> list_frame_stems(const std::string& directory
   std::error_code ec;
   if (!fs::is_directory(directory, ec)) return Error{directory + ": not a folder (or it does not exist)"};
   std::vector<std::string> stems;
-  const std::string suffix = kDepthSuffix;
+  const std::string suffix = kDepthFileSuffix;
   for (fs::directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
     if (name.size() <= suffix.size() || name.front() == '.') continue;

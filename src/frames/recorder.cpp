@@ -23,7 +23,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kPartialDir = ".partial";
-constexpr const char* kGroupDepthSuffix = ".depth.png";
 
 std::string stem_of(const std::string& file_name) {
   const auto dot = file_name.find('.');
@@ -79,7 +78,7 @@ Status FrameRecorder::scan() {
     const std::string name = e.path().filename().string();
     if (name.empty() || name[0] == '.') continue;
     Group& g = groups[stem_of(name)];
-    g.has_depth = g.has_depth || ends_with(name, kGroupDepthSuffix);
+    g.has_depth = g.has_depth || ends_with(name, kDepthFileSuffix);
     g.bytes += e.file_size(ec);
     g.files.push_back(e.path());
   }
@@ -156,7 +155,7 @@ Expected<std::string> FrameRecorder::record(const Frame& frame, const std::strin
   }
   // Depth PNG last: the frame becomes visible only when all its files are in place.
   std::stable_partition(files.begin(), files.end(), [](const fs::path& p) {
-    return !ends_with(p.filename().string(), kGroupDepthSuffix);
+    return !ends_with(p.filename().string(), kDepthFileSuffix);
   });
   std::uint64_t bytes = 0;
   for (const auto& f : files) {
@@ -183,7 +182,7 @@ void FrameRecorder::prune() {
     entries_.pop_front();
     total_bytes_ -= std::min(total_bytes_, oldest.bytes);
     // Depth PNG first so a cut mid-delete leaves no half frame that looks whole.
-    fs::remove(dir / (oldest.stem + kGroupDepthSuffix), ec);
+    fs::remove(dir / (oldest.stem + kDepthFileSuffix), ec);
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       if (stem_of(e.path().filename().string()) == oldest.stem) fs::remove(e.path(), ec);
     }

@@ -6,6 +6,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "palletd/core/timing.hpp"
 #include "palletd/detection/unknown_cartons.hpp"
 
 namespace palletd {
@@ -43,8 +44,7 @@ double warm_up(Acquisition& acquisition, const Config& config, DetectionWorkspac
   apply_calibration(config, frame);
   const auto t0 = std::chrono::steady_clock::now();
   const Detection detection = detect_recipe(config, *recipe, frame, workspace);
-  const double elapsed_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double elapsed_ms = ms_since(t0);
   spdlog::info("warm-up detection on the first frame (recipe {}): {} in {:.0f} ms", recipe->number,
                to_string(detection.status), elapsed_ms);
   return elapsed_ms;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 
+#include "palletd/core/timing.hpp"
 #include "palletd/detection/recipe_choice.hpp"
 
 #include "recipe_detection.hpp"
@@ -20,8 +21,7 @@ TriggerAnswer answer_trigger(const Config& cfg, const Recipe& recipe, const Fram
     a.detection.recipe_check.best_recipe =
         best_fitting_recipe(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace);
   }
-  const double elapsed_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double elapsed_ms = ms_since(t0);
   a.record = to_result_record(a.detection, frame.T_base_camera.has_value());
   a.record.processing_ms = elapsed_ms;
   if (elapsed_ms > cfg.pipeline.detection_timeout_ms) {

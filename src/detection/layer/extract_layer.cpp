@@ -6,6 +6,8 @@
 #include <sstream>
 #include <string>
 
+#include "palletd/core/timing.hpp"
+
 #include "layer_stages.hpp"
 
 namespace palletd {
@@ -17,10 +19,6 @@ using Clock = std::chrono::steady_clock;
 constexpr double kCrustDMax_pitches = 2.0;
 /// A ring enclosing less than this many pixel footprints (pitch^2) is no outline [px].
 constexpr double kMinRingArea_px = 2.0;
-
-double elapsed_ms(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 LayerResult fail(LayerResult result, DetectionStatus status, std::string reason) {
   result.status = status;
@@ -302,7 +300,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   if (frame.T_base_camera) up_camera = frame.T_base_camera->linear().transpose() * Eigen::Vector3d::UnitZ();
   const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params, usable, up_camera);
   result.diagnostics.plane_candidates = top.candidates;
-  result.diagnostics.t_plane_ms = elapsed_ms(t_start);
+  result.diagnostics.t_plane_ms = ms_since(t_start);
   if (top.status != DetectionStatus::kOk) return fail(result, top.status, top.reason);
   result.plane_camera = top.plane;
   result.diagnostics.plane_inliers = top.inliers;
@@ -319,7 +317,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   result.diagnostics.filled_dropouts = lm.filled_dropouts;
   result.diagnostics.touches_image_border = lm.touches_image_border;
   if (cv::countNonZero(lm.mask) == 0) {
-    result.diagnostics.t_layer_ms = elapsed_ms(t_layer);
+    result.diagnostics.t_layer_ms = ms_since(t_layer);
     return fail(result, DetectionStatus::kNoLayer, "no layer pixels left after cleaning the plane's mask");
   }
   const layer::Components comps = layer::find_components(
@@ -331,7 +329,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   const Eigen::Isometry3d T_layer_camera = result.T_camera_layer.inverse();
   collect_layer_points(lm.mask, cloud, T_layer_camera, plane_params, result);
   if (trace) record_mask(lm, *trace);
-  result.diagnostics.t_layer_ms = elapsed_ms(t_layer);
+  result.diagnostics.t_layer_ms = ms_since(t_layer);
   if (comps.kept.empty()) {
     std::ostringstream s;
     s << "no layer component covers " << min_component_area_m2 << " m^2 (" << comps.dropped << " smaller ones dropped)";
@@ -347,7 +345,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
                            plane_params, K.fx,     layer_params, contour_params, trace};
   OutlineCounts counts;
   trace_polygons(ctx, comps.kept, result, counts);
-  result.diagnostics.t_contour_ms = elapsed_ms(t_contour);
+  result.diagnostics.t_contour_ms = ms_since(t_contour);
   if (result.polygons.empty()) return fail(result, DetectionStatus::kNoLayer, "no closed outline could be traced");
   return judge_outline(std::move(result), counts, lm.touches_image_border, layer_params);
 }

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "palletd/core/timing.hpp"
+
 #include "evidence/layout_scoring.hpp"
 #include "evidence/rank_layouts.hpp"
 #include "evidence/seam_likelihood.hpp"
@@ -460,7 +462,7 @@ LayoutResult find_distinct_layout(const std::vector<PolygonWithHoles>& component
     result.coverage = total_area > 0 ? std::min(1.0, covered / total_area) : 0.0;
     finish_status(reasons, result);
   }
-  result.search_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  result.search_ms = ms_since(t0);
   return result;
 }
 

@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "palletd/core/statistics.hpp"
+#include "palletd/core/timing.hpp"
 #include "palletd/detection/pick_check.hpp"
 
 #include "../frame_problem.hpp"
@@ -182,8 +183,7 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   auto finish = [&](PickVerdict verdict, std::string message) {
     out.verdict = verdict;
     out.message = std::move(message);
-    out.timing_ms["total"] =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    out.timing_ms["total"] = ms_since(t0);
     return out;
   };
   if (last.status != DetectionStatus::kOk || last.boxes.empty())

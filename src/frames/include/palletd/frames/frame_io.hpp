@@ -14,6 +14,9 @@
 
 namespace palletd {
 
+/// A frame's depth file is its stem followed by this; a frame is listed by it.
+inline constexpr const char* kDepthFileSuffix = ".depth.png";
+
 /// Reads STEM.depth.png, STEM.json and, when present, STEM.intensity.png.
 /// Errors name the file and the problem (missing file, 8-bit or colour depth, size mismatch,
 /// missing or wrong-typed key, non-positive focal length or depth_scale, truncated PNG).
