@@ -1,10 +1,10 @@
-// palletd_bench_pick_check [--count N] [--seed S]
+// palletd_bench_pick_check [--count N] [--seed S] [--frame I]
 // The check after a pick (check_pick) on simulated picks, for docs/benchmarks.md: a layer of
 // every pattern seen by four sensor profiles; box 0 of the detected pick order is taken, and by
 // turns the pick is clean, missed, a double pick (a neighbour gone too), or a neighbour is
-// dragged 5-40 mm toward the gap or turned 2-5 degrees. Prints, per profile, how often the
-// verdict is right, missed and double picks called pick_ok, the dragged neighbours' pose error
-// and the time per check.
+// dragged 5-40 mm toward the gap or turned 2-5 degrees where it has room (sim::simulate_pick).
+// Prints, per profile, how often the verdict is right, missed and double picks called pick_ok,
+// the moved neighbours' pose error and the time per check.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +15,7 @@
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/pick_check.hpp"
 #include "palletd/results/evaluation.hpp"
+#include "palletd/sim/pick.hpp"
 #include "palletd/sim/sim.hpp"
 
 using namespace palletd;
@@ -23,7 +24,7 @@ namespace {
 
 struct Tally {
   int checks = 0, right = 0, unsafe_ok = 0;
-  int per_case[4] = {0, 0, 0, 0}, right_per_case[4] = {0, 0, 0, 0};
+  int per_case[5] = {0, 0, 0, 0, 0}, right_per_case[5] = {0, 0, 0, 0, 0};
   std::vector<double> pose_error_mm, check_ms;
 };
 
@@ -34,20 +35,15 @@ std::size_t scene_box(const sim::Scene& s, const DetectedBox& b) {
   });
 }
 
-int nearest_other(const Detection& d, int i) {
+/// The detected box standing nearest to where scene box `k` stood.
+int detected_box(const Detection& d, const sim::SimBox& k) {
   int best = -1;
   double best_d = 1e9;
   for (std::size_t j = 0; j < d.boxes.size(); ++j) {
-    const double dist =
-        (*d.boxes[j].base_position - *d.boxes[static_cast<std::size_t>(i)].base_position).norm();
-    if (static_cast<int>(j) != i && dist < best_d) best_d = dist, best = static_cast<int>(j);
+    const double dist = (d.boxes[j].base_position->head<2>() - k.center).norm();
+    if (dist < best_d) best_d = dist, best = static_cast<int>(j);
   }
   return best;
-}
-
-void lower(sim::Scene& s, std::size_t k) {
-  s.boxes[k].top_z_m = -1.0;
-  s.boxes[k].bottom_z_m = -1.3;
 }
 
 }  // namespace
@@ -55,20 +51,24 @@ void lower(sim::Scene& s, std::size_t k) {
 int main(int argc, char** argv) {
   int count = 80;
   std::uint64_t seed = 1;
+  int only = -1;  // --frame: that frame of the set alone (to look at one check)
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i];
     if (k == "--count")
       count = std::atoi(argv[i + 1]);
     else if (k == "--seed")
       seed = std::strtoull(argv[i + 1], nullptr, 10);
+    else if (k == "--frame")
+      only = std::atoi(argv[i + 1]);
   }
   const std::vector<std::string> profiles = {"helios2", "blaze101", "o3d303", "d435"};
   const std::vector<sim::PatternFamily> patterns = {
       sim::PatternFamily::kBlock, sim::PatternFamily::kInterlock, sim::PatternFamily::kBrick,
       sim::PatternFamily::kPinwheel};
-  const char* cases[4] = {"clean", "missed", "double", "neighbour moved"};
+  int turns_asked = 0, turns_done = 0;
   std::vector<Tally> tallies(profiles.size());
   for (int i = 0; i < count; ++i) {
+    if (only >= 0 && i != only) continue;
     const std::uint64_t s = sim::frame_seed(seed, static_cast<std::uint64_t>(i));
     const std::size_t pi = static_cast<std::size_t>(i) % profiles.size();
     const sim::SensorProfile profile = *sim::profile_by_name(profiles[pi]);
@@ -83,63 +83,61 @@ int main(int argc, char** argv) {
     if (last.status != DetectionStatus::kOk || last.boxes.size() < 2 ||
         !evaluate_frame(last, before.truth, {}).exact)
       continue;  // the check starts from a right result
-    const int kind = static_cast<int>(s % 4);
+    const int asked = static_cast<int>(s % 4);
+    const sim::PickEvent event = asked == 3
+                                     ? ((s >> 20) % 3 == 0 ? sim::PickEvent::kTurn : sim::PickEvent::kDrag)
+                                     : static_cast<sim::PickEvent>(asked);
     sim::Scene after = *scene;
-    const std::size_t picked = scene_box(after, last.boxes[0]);
-    const int other = nearest_other(last, 0);
-    const std::size_t neighbour = scene_box(after, last.boxes[static_cast<std::size_t>(other)]);
-    if (kind != 1) lower(after, picked);
-    if (kind == 2) lower(after, neighbour);
-    if (kind == 3) {
-      sim::SimBox& b = after.boxes[neighbour];
-      const double amount = 0.005 + 0.035 * static_cast<double>((s >> 8) % 1000) / 999.0;
-      if ((s >> 20) % 3 == 0)
-        b.yaw_rad += (2.0 + 3.0 * amount / 0.04) * M_PI / 180.0;
-      else
-        b.center += amount * (scene->boxes[picked].center - b.center).normalized();
-    }
+    const sim::PickOutcome outcome = sim::simulate_pick(after, scene_box(after, last.boxes[0]), event, s);
+    const int kind = static_cast<int>(outcome.event);
+    turns_asked += event == sim::PickEvent::kTurn ? 1 : 0;
+    turns_done += outcome.event == sim::PickEvent::kTurn ? 1 : 0;
+    const int other = outcome.neighbour ? detected_box(last, scene->boxes[*outcome.neighbour]) : -1;
     const sim::SimulatedFrame frame_after = sim::render(after, profile, s + 7);
     const PickCheck c = check_pick(before.frame, last, frame_after.frame, {0}, PickCheckParams{});
     Tally& t = tallies[pi];
     ++t.checks;
     ++t.per_case[kind];
     t.check_ms.push_back(c.timing_ms.at("total"));
-    const PickVerdict expected[4] = {PickVerdict::kPickOk, PickVerdict::kBoxStillThere,
-                                     PickVerdict::kExtraBoxGone, PickVerdict::kNeighbourMoved};
+    const PickVerdict expected[5] = {PickVerdict::kPickOk, PickVerdict::kBoxStillThere,
+                                     PickVerdict::kExtraBoxGone, PickVerdict::kNeighbourMoved,
+                                     PickVerdict::kNeighbourMoved};
     // A moved neighbour within the tolerance may be reported either way.
-    const sim::SimBox& truth_box = after.boxes[neighbour];
-    const double moved_mm = 1e3 * (truth_box.center - scene->boxes[neighbour].center).norm();
-    const double turned_deg = std::abs(truth_box.yaw_rad - scene->boxes[neighbour].yaw_rad) * 180.0 / M_PI;
-    const bool small = kind == 3 && moved_mm <= 12.0 && turned_deg < 1.0;
+    const double moved_mm = 1e3 * outcome.shift_m.norm();
+    const double turned_deg = std::abs(outcome.turn_rad) * 180.0 / M_PI;
+    const bool moves = kind >= 3;
+    const bool small = moves && moved_mm <= 12.0 && turned_deg < 1.0;
     const bool right = c.verdict == expected[kind] || (small && c.verdict == PickVerdict::kPickOk);
     t.right += right ? 1 : 0;
     t.right_per_case[kind] += right ? 1 : 0;
     if ((kind == 1 || kind == 2) && c.verdict == PickVerdict::kPickOk) ++t.unsafe_ok;
-    if (kind == 3 && c.boxes[static_cast<std::size_t>(other)].moved)
+    static const BoxCheck kNone;
+    const BoxCheck& seen = other >= 0 ? c.boxes[static_cast<std::size_t>(other)] : kNone;
+    if (moves && seen.moved)
       t.pose_error_mm.push_back(
-          1e3 *
-          (c.boxes[static_cast<std::size_t>(other)].now.base_position->head<2>() - truth_box.center).norm());
+          1e3 * (seen.now.base_position->head<2>() - after.boxes[*outcome.neighbour].center).norm());
     if (!right && std::getenv("PALLETD_BENCH_VERBOSE") != nullptr)
       std::fprintf(stderr,
                    "%d %s %s: %s expected, %s: %s (moved %.1f mm, turned %.1f deg; the check saw the "
                    "neighbour move %.1f mm, turn %.1f deg, %d sides seen)\n",
-                   i, profiles[pi].c_str(), cases[kind], to_string(expected[kind]), to_string(c.verdict),
-                   c.message.c_str(), moved_mm, turned_deg, c.boxes[static_cast<std::size_t>(other)].shift_mm,
-                   c.boxes[static_cast<std::size_t>(other)].turn_deg,
-                   c.boxes[static_cast<std::size_t>(other)].sides_seen);
+                   i, profiles[pi].c_str(), sim::to_string(outcome.event), to_string(expected[kind]),
+                   to_string(c.verdict), c.message.c_str(), moved_mm, turned_deg, seen.shift_mm,
+                   seen.turn_deg, seen.sides_seen);
   }
   std::printf(
-      "| profile | checks | right | clean | missed | double | neighbour moved | missed or double called "
+      "| profile | checks | right | clean | missed | double | dragged | turned | missed or double called "
       "pick_ok | moved pose error median mm | max mm | check median ms | p95 ms |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (std::size_t p = 0; p < profiles.size(); ++p) {
     const Tally& t = tallies[p];
-    std::printf("| %s | %d | %d | %d/%d | %d/%d | %d/%d | %d/%d | %d | %.1f | %.1f | %.1f | %.1f |\n",
+    std::printf("| %s | %d | %d | %d/%d | %d/%d | %d/%d | %d/%d | %d/%d | %d | %.1f | %.1f | %.1f | %.1f |\n",
                 profiles[p].c_str(), t.checks, t.right, t.right_per_case[0], t.per_case[0],
                 t.right_per_case[1], t.per_case[1], t.right_per_case[2], t.per_case[2], t.right_per_case[3],
-                t.per_case[3], t.unsafe_ok, percentile(t.pose_error_mm, 50.0),
-                percentile(t.pose_error_mm, 100.0), percentile(t.check_ms, 50.0),
-                percentile(t.check_ms, 95.0));
+                t.per_case[3], t.right_per_case[4], t.per_case[4], t.unsafe_ok,
+                percentile(t.pose_error_mm, 50.0), percentile(t.pose_error_mm, 100.0),
+                percentile(t.check_ms, 50.0), percentile(t.check_ms, 95.0));
   }
+  std::printf("\nTurns asked %d, made %d (the rest had no room and were dragged).\n", turns_asked,
+              turns_done);
   return 0;
 }
