@@ -1,10 +1,11 @@
-// palletd_bench_pick_check [--count N] [--seed S] [--frame I]
+// palletd_bench_pick_check [--count N] [--seed S] [--frame I] [--sequence]
 // The check after a pick (check_pick) on simulated picks, for docs/benchmarks.md: a layer of
 // every pattern seen by four sensor profiles; box 0 of the detected pick order is taken, and by
 // turns the pick is clean, missed, a double pick (a neighbour gone too), or a neighbour is
 // dragged 5-40 mm toward the gap or turned 2-5 degrees where it has room (sim::simulate_pick).
-// Prints, per profile, how often the verdict is right, missed and double picks called pick_ok,
-// the moved neighbours' pose error and the time per check.
+// With --sequence the layer is picked until it is gone, each check against the result the last
+// one left (after_pick), as in the cell. Prints, per profile, how often the verdict is right,
+// missed and double picks called pick_ok, the moved neighbours' pose error and the time per check.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,7 @@
 
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/pick_check.hpp"
+#include "palletd/detection/picking.hpp"
 #include "palletd/results/evaluation.hpp"
 #include "palletd/sim/pick.hpp"
 #include "palletd/sim/sim.hpp"
@@ -23,16 +25,19 @@ using namespace palletd;
 namespace {
 
 struct Tally {
-  int checks = 0, right = 0, unsafe_ok = 0;
+  int checks = 0, right = 0, unsafe_ok = 0, turns_asked = 0, turns_done = 0;
   int per_case[5] = {0, 0, 0, 0, 0}, right_per_case[5] = {0, 0, 0, 0, 0};
   std::vector<double> pose_error_mm, check_ms;
 };
 
+/// The standing scene box nearest to a detected one.
 std::size_t scene_box(const sim::Scene& s, const DetectedBox& b) {
   const Eigen::Vector2d at = b.base_position->head<2>();
-  return *std::min_element(s.top_layer.begin(), s.top_layer.end(), [&](std::size_t x, std::size_t y) {
-    return (s.boxes[x].center - at).norm() < (s.boxes[y].center - at).norm();
-  });
+  auto distance = [&](std::size_t k) {
+    return s.boxes[k].top_z_m < 0.0 ? 1e9 : (s.boxes[k].center - at).norm();
+  };
+  return *std::min_element(s.top_layer.begin(), s.top_layer.end(),
+                           [&](std::size_t x, std::size_t y) { return distance(x) < distance(y); });
 }
 
 /// The detected box standing nearest to where scene box `k` stood.
@@ -46,13 +51,60 @@ int detected_box(const Detection& d, const sim::SimBox& k) {
   return best;
 }
 
+/// One pick of box 0 of `last` (seen in `before`), made in `scene` by the event `s` draws,
+/// checked and scored into `t`. Returns the check and the frame after it.
+std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before, sim::Scene& scene,
+                                      const sim::SensorProfile& profile, std::uint64_t s,
+                                      const std::string& label, Tally& t) {
+  const int asked = static_cast<int>(s % 4);
+  const sim::PickEvent event = asked == 3
+                                   ? ((s >> 20) % 3 == 0 ? sim::PickEvent::kTurn : sim::PickEvent::kDrag)
+                                   : static_cast<sim::PickEvent>(asked);
+  const sim::Scene was = scene;
+  const sim::PickOutcome outcome = sim::simulate_pick(scene, scene_box(scene, last.boxes[0]), event, s);
+  const int kind = static_cast<int>(outcome.event);
+  t.turns_asked += event == sim::PickEvent::kTurn ? 1 : 0;
+  t.turns_done += outcome.event == sim::PickEvent::kTurn ? 1 : 0;
+  const int other = outcome.neighbour ? detected_box(last, was.boxes[*outcome.neighbour]) : -1;
+  sim::SimulatedFrame frame_after = sim::render(scene, profile, s + 7);
+  const PickCheck c = check_pick(before, last, frame_after.frame, {0}, PickCheckParams{});
+  ++t.checks;
+  ++t.per_case[kind];
+  t.check_ms.push_back(c.timing_ms.at("total"));
+  const PickVerdict expected[5] = {PickVerdict::kPickOk, PickVerdict::kBoxStillThere,
+                                   PickVerdict::kExtraBoxGone, PickVerdict::kNeighbourMoved,
+                                   PickVerdict::kNeighbourMoved};
+  // A moved neighbour within the tolerance may be reported either way.
+  const double moved_mm = 1e3 * outcome.shift_m.norm();
+  const double turned_deg = std::abs(outcome.turn_rad) * 180.0 / M_PI;
+  const bool moves = kind >= 3;
+  const bool small = moves && moved_mm <= 12.0 && turned_deg < 1.0;
+  const bool right = c.verdict == expected[kind] || (small && c.verdict == PickVerdict::kPickOk);
+  t.right += right ? 1 : 0;
+  t.right_per_case[kind] += right ? 1 : 0;
+  if ((kind == 1 || kind == 2) && c.verdict == PickVerdict::kPickOk) ++t.unsafe_ok;
+  static const BoxCheck kNone;
+  const BoxCheck& seen = other >= 0 ? c.boxes[static_cast<std::size_t>(other)] : kNone;
+  if (moves && seen.moved)
+    t.pose_error_mm.push_back(
+        1e3 * (seen.now.base_position->head<2>() - scene.boxes[*outcome.neighbour].center).norm());
+  if (!right && std::getenv("PALLETD_BENCH_VERBOSE") != nullptr)
+    std::fprintf(stderr,
+                 "%s %s: %s expected, %s: %s (moved %.1f mm, turned %.1f deg; the check saw the "
+                 "neighbour move %.1f mm, turn %.1f deg, %d sides seen)\n",
+                 label.c_str(), sim::to_string(outcome.event), to_string(expected[kind]),
+                 to_string(c.verdict), c.message.c_str(), moved_mm, turned_deg, seen.shift_mm, seen.turn_deg,
+                 seen.sides_seen);
+  return {c, std::move(frame_after.frame)};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int count = 80;
   std::uint64_t seed = 1;
   int only = -1;  // --frame: that frame of the set alone (to look at one check)
-  for (int i = 1; i + 1 < argc; i += 2) {
+  for (int i = 1; i + 1 < argc; ++i) {
     const std::string k = argv[i];
     if (k == "--count")
       count = std::atoi(argv[i + 1]);
@@ -61,11 +113,11 @@ int main(int argc, char** argv) {
     else if (k == "--frame")
       only = std::atoi(argv[i + 1]);
   }
+  const bool sequence = std::find(argv + 1, argv + argc, std::string("--sequence")) != argv + argc;
   const std::vector<std::string> profiles = {"helios2", "blaze101", "o3d303", "d435"};
   const std::vector<sim::PatternFamily> patterns = {
       sim::PatternFamily::kBlock, sim::PatternFamily::kInterlock, sim::PatternFamily::kBrick,
       sim::PatternFamily::kPinwheel};
-  int turns_asked = 0, turns_done = 0;
   std::vector<Tally> tallies(profiles.size());
   for (int i = 0; i < count; ++i) {
     if (only >= 0 && i != only) continue;
@@ -83,46 +135,22 @@ int main(int argc, char** argv) {
     if (last.status != DetectionStatus::kOk || last.boxes.size() < 2 ||
         !evaluate_frame(last, before.truth, {}).exact)
       continue;  // the check starts from a right result
-    const int asked = static_cast<int>(s % 4);
-    const sim::PickEvent event = asked == 3
-                                     ? ((s >> 20) % 3 == 0 ? sim::PickEvent::kTurn : sim::PickEvent::kDrag)
-                                     : static_cast<sim::PickEvent>(asked);
-    sim::Scene after = *scene;
-    const sim::PickOutcome outcome = sim::simulate_pick(after, scene_box(after, last.boxes[0]), event, s);
-    const int kind = static_cast<int>(outcome.event);
-    turns_asked += event == sim::PickEvent::kTurn ? 1 : 0;
-    turns_done += outcome.event == sim::PickEvent::kTurn ? 1 : 0;
-    const int other = outcome.neighbour ? detected_box(last, scene->boxes[*outcome.neighbour]) : -1;
-    const sim::SimulatedFrame frame_after = sim::render(after, profile, s + 7);
-    const PickCheck c = check_pick(before.frame, last, frame_after.frame, {0}, PickCheckParams{});
+    sim::Scene now = *scene;
     Tally& t = tallies[pi];
-    ++t.checks;
-    ++t.per_case[kind];
-    t.check_ms.push_back(c.timing_ms.at("total"));
-    const PickVerdict expected[5] = {PickVerdict::kPickOk, PickVerdict::kBoxStillThere,
-                                     PickVerdict::kExtraBoxGone, PickVerdict::kNeighbourMoved,
-                                     PickVerdict::kNeighbourMoved};
-    // A moved neighbour within the tolerance may be reported either way.
-    const double moved_mm = 1e3 * outcome.shift_m.norm();
-    const double turned_deg = std::abs(outcome.turn_rad) * 180.0 / M_PI;
-    const bool moves = kind >= 3;
-    const bool small = moves && moved_mm <= 12.0 && turned_deg < 1.0;
-    const bool right = c.verdict == expected[kind] || (small && c.verdict == PickVerdict::kPickOk);
-    t.right += right ? 1 : 0;
-    t.right_per_case[kind] += right ? 1 : 0;
-    if ((kind == 1 || kind == 2) && c.verdict == PickVerdict::kPickOk) ++t.unsafe_ok;
-    static const BoxCheck kNone;
-    const BoxCheck& seen = other >= 0 ? c.boxes[static_cast<std::size_t>(other)] : kNone;
-    if (moves && seen.moved)
-      t.pose_error_mm.push_back(
-          1e3 * (seen.now.base_position->head<2>() - after.boxes[*outcome.neighbour].center).norm());
-    if (!right && std::getenv("PALLETD_BENCH_VERBOSE") != nullptr)
-      std::fprintf(stderr,
-                   "%d %s %s: %s expected, %s: %s (moved %.1f mm, turned %.1f deg; the check saw the "
-                   "neighbour move %.1f mm, turn %.1f deg, %d sides seen)\n",
-                   i, profiles[pi].c_str(), sim::to_string(outcome.event), to_string(expected[kind]),
-                   to_string(c.verdict), c.message.c_str(), moved_mm, turned_deg, seen.shift_mm,
-                   seen.turn_deg, seen.sides_seen);
+    const std::string label = std::to_string(i) + " " + profiles[pi];
+    if (!sequence) {
+      check_one(last, before.frame, now, profile, s, label, t);
+      continue;
+    }
+    // The whole layer, pick after pick, each check against what the last one left.
+    Detection d = last;
+    Frame f = before.frame;
+    for (int step = 0; !d.boxes.empty() && step < 3 * static_cast<int>(last.boxes.size()); ++step) {
+      auto [c, next] = check_one(d, f, now, profile, sim::frame_seed(s, static_cast<std::uint64_t>(step) + 1),
+                                 label + " pick " + std::to_string(step), t);
+      d = after_pick(d, c, next, DetectionParams{});
+      f = std::move(next);
+    }
   }
   std::printf(
       "| profile | checks | right | clean | missed | double | dragged | turned | missed or double called "
@@ -137,6 +165,8 @@ int main(int argc, char** argv) {
                 percentile(t.pose_error_mm, 50.0), percentile(t.pose_error_mm, 100.0),
                 percentile(t.check_ms, 50.0), percentile(t.check_ms, 95.0));
   }
+  int turns_asked = 0, turns_done = 0;
+  for (const Tally& t : tallies) turns_asked += t.turns_asked, turns_done += t.turns_done;
   std::printf("\nTurns asked %d, made %d (the rest had no room and were dragged).\n", turns_asked,
               turns_done);
   return 0;
