@@ -22,8 +22,9 @@ enum class PickEvent {
 
 /// What happened, with the truth the check is scored against.
 struct PickOutcome {
-  PickEvent event = PickEvent::kClean;   ///< as done: a turn without room is a drag, a drag or a
-                                         ///< double pick without a neighbour beside the box is clean
+  /// As done: a turn without room is a drag; a drag or a double pick without a neighbour beside
+  /// the box, or a drag without 5 mm of room, is clean.
+  PickEvent event = PickEvent::kClean;
   std::vector<std::size_t> gone;         ///< indices into Scene::boxes taken off the layer
   std::optional<std::size_t> neighbour;  ///< the neighbour that went, was dragged or turned
   Eigen::Vector2d shift_m = Eigen::Vector2d::Zero();  ///< how far its centre moved [m]
