@@ -19,13 +19,6 @@ constexpr double kOverlapTolerance_m = 1e-4;
 constexpr double kDragMin_m = 0.005, kDragMax_m = 0.040;
 constexpr double kTurnMin_deg = 2.0, kTurnMax_deg = 5.0, kTurnStep_deg = 0.5;
 
-bool standing(const SimBox& b) { return b.top_z_m > kTakenTop_m + 0.1; }
-
-void take(SimBox& b) {
-  b.top_z_m = kTakenTop_m;
-  b.bottom_z_m = kTakenTop_m - 0.3;
-}
-
 bool inside_footprint(const SimBox& b, const Eigen::Vector2d& p) {
   const Eigen::Vector2d q = Eigen::Rotation2Dd(-b.yaw_rad) * (p - b.center);
   return std::abs(q.x()) <= 0.5 * b.long_m && std::abs(q.y()) <= 0.5 * b.short_m;
@@ -59,7 +52,7 @@ double contact_m(const BoxSide& side, const SimBox& other) {
 
 bool fits(const Scene& scene, const SimBox& moved, std::size_t self) {
   for (const std::size_t j : scene.top_layer)
-    if (j != self && standing(scene.boxes[j]) &&
+    if (j != self && !taken_off(scene.boxes[j]) &&
         detail::footprints_overlap(moved, scene.boxes[j], kOverlapTolerance_m))
       return false;
   return true;
@@ -74,7 +67,7 @@ std::optional<std::pair<std::size_t, Eigen::Vector2d>> side_neighbour(const Scen
   for (int k = 0; k < 4; ++k) {
     const BoxSide side = box_side(scene.boxes[picked], k);
     for (const std::size_t j : scene.top_layer) {
-      if (j == picked || !standing(scene.boxes[j])) continue;
+      if (j == picked || taken_off(scene.boxes[j])) continue;
       if (const double c = contact_m(side, scene.boxes[j]); c > best_m) {
         best_m = c;
         best = std::make_pair(j, Eigen::Vector2d(-side.normal));
@@ -131,14 +124,14 @@ PickOutcome simulate_pick(Scene& scene, std::size_t picked, PickEvent event, std
     out.event = event;
     return out;
   }
-  take(scene.boxes[picked]);
+  take_off(scene.boxes[picked]);
   out.gone.push_back(picked);
   const auto neighbour = side_neighbour(scene, picked);
   if (event == PickEvent::kClean || !neighbour) return out;
   const auto [j, toward] = *neighbour;
   out.neighbour = j;
   if (event == PickEvent::kDouble) {
-    take(scene.boxes[j]);
+    take_off(scene.boxes[j]);
     out.gone.push_back(j);
     out.event = event;
     return out;
@@ -162,6 +155,13 @@ PickOutcome simulate_pick(Scene& scene, std::size_t picked, PickEvent event, std
   scene.boxes[j] = *moved;
   return out;
 }
+
+void take_off(SimBox& box) {
+  box.top_z_m = kTakenTop_m;
+  box.bottom_z_m = kTakenTop_m - 0.3;
+}
+
+bool taken_off(const SimBox& box) { return box.top_z_m < kTakenTop_m + 0.1; }
 
 const char* to_string(PickEvent event) {
   switch (event) {

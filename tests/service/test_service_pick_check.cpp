@@ -15,6 +15,7 @@
 #include "palletd/modbus/client.hpp"
 #include "palletd/modbus/register_map.hpp"
 #include "palletd/service/service.hpp"
+#include "palletd/sim/pick.hpp"
 #include "palletd/sim/sim.hpp"
 
 namespace fs = std::filesystem;
@@ -86,17 +87,12 @@ std::size_t scene_box(const sim::Scene& scene, const DetectedBox& box) {
   });
 }
 
-void remove_box(sim::Scene& scene, std::size_t k) {
-  scene.boxes[k].top_z_m = -1.0;
-  scene.boxes[k].bottom_z_m = -1.3;
-}
-
 /// The standing box nearest to box `k` of the scene's top layer.
 std::size_t nearest_standing(const sim::Scene& scene, std::size_t k) {
   std::size_t best = k;
   double best_d = 1e9;
   for (const std::size_t j : scene.top_layer) {
-    if (j == k || scene.boxes[j].top_z_m < 0.0) continue;
+    if (j == k || sim::taken_off(scene.boxes[j])) continue;
     const double d = (scene.boxes[j].center - scene.boxes[k].center).norm();
     if (d < best_d) best_d = d, best = j;
   }
@@ -125,7 +121,7 @@ TEST_CASE("pick check over Modbus: a layer picked box by box, a dragged neighbou
   for (std::size_t k = 1; k <= n; ++k) {
     REQUIRE_FALSE(d.groups.empty());
     const std::size_t taken = scene_box(s, d.boxes[static_cast<std::size_t>(d.groups[0].boxes.front())]);
-    remove_box(s, taken);
+    sim::take_off(s.boxes[taken]);
     if (k == 2) {
       dragged = nearest_standing(s, taken);
       s.boxes[dragged].center += 0.020 * (s.boxes[taken].center - s.boxes[dragged].center).normalized();

@@ -32,29 +32,27 @@ Scene row_scene(bool row) {
   return s;
 }
 
-bool taken(const SimBox& b) { return b.top_z_m < 0.0; }
-
 }  // namespace
 
 TEST_CASE("a pick takes the box - a missed pick leaves it - a double pick takes the neighbour beside it") {
   Scene clean = row_scene(true);
   PickOutcome c = simulate_pick(clean, 1, PickEvent::kClean, 5);
   CHECK(c.event == PickEvent::kClean);
-  CHECK(taken(clean.boxes[1]));
-  CHECK_FALSE(taken(clean.boxes[0]));
+  CHECK(taken_off(clean.boxes[1]));
+  CHECK_FALSE(taken_off(clean.boxes[0]));
 
   Scene missed = row_scene(true);
   c = simulate_pick(missed, 1, PickEvent::kMissed, 5);
   CHECK(c.gone.empty());
-  CHECK_FALSE(taken(missed.boxes[1]));
+  CHECK_FALSE(taken_off(missed.boxes[1]));
 
   Scene twice = row_scene(true);
   c = simulate_pick(twice, 1, PickEvent::kDouble, 5);
   CHECK(c.event == PickEvent::kDouble);
   REQUIRE(c.neighbour);
   CHECK(*c.neighbour == 0);  // the one sharing a whole side, not a row end
-  CHECK(taken(twice.boxes[0]));
-  CHECK_FALSE(taken(twice.boxes[2]));
+  CHECK(taken_off(twice.boxes[0]));
+  CHECK_FALSE(taken_off(twice.boxes[2]));
 }
 
 TEST_CASE("a carton held on both sides by its row is dragged toward the gap - it cannot turn in place") {
@@ -99,7 +97,7 @@ TEST_CASE("on built layers a moved neighbour never cuts into another carton") {
         (out.event == PickEvent::kTurn ? turned : dragged) += 1;
         const SimBox& moved = s.boxes[*out.neighbour];
         for (const std::size_t j : s.top_layer)
-          if (j != *out.neighbour && !taken(s.boxes[j]))
+          if (j != *out.neighbour && !taken_off(s.boxes[j]))
             CHECK_FALSE(detail::footprints_overlap(moved, s.boxes[j], 2e-4));
         CHECK(out.shift_m.norm() <= 0.045);
       }

@@ -34,18 +34,18 @@ struct Tally {
 std::size_t scene_box(const sim::Scene& s, const DetectedBox& b) {
   const Eigen::Vector2d at = b.base_position->head<2>();
   auto distance = [&](std::size_t k) {
-    return s.boxes[k].top_z_m < 0.0 ? 1e9 : (s.boxes[k].center - at).norm();
+    return sim::taken_off(s.boxes[k]) ? 1e9 : (s.boxes[k].center - at).norm();
   };
   return *std::min_element(s.top_layer.begin(), s.top_layer.end(),
                            [&](std::size_t x, std::size_t y) { return distance(x) < distance(y); });
 }
 
-/// The detected box standing nearest to where scene box `k` stood.
-int detected_box(const Detection& d, const sim::SimBox& k) {
+/// The detected box standing nearest to `at` (base frame, x-y) [m].
+int detected_box(const Detection& d, const Eigen::Vector2d& at) {
   int best = -1;
   double best_d = 1e9;
   for (std::size_t j = 0; j < d.boxes.size(); ++j) {
-    const double dist = (d.boxes[j].base_position->head<2>() - k.center).norm();
+    const double dist = (d.boxes[j].base_position->head<2>() - at).norm();
     if (dist < best_d) best_d = dist, best = static_cast<int>(j);
   }
   return best;
@@ -60,12 +60,13 @@ std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before
   const sim::PickEvent event = asked == 3
                                    ? ((s >> 20) % 3 == 0 ? sim::PickEvent::kTurn : sim::PickEvent::kDrag)
                                    : static_cast<sim::PickEvent>(asked);
-  const sim::Scene was = scene;
   const sim::PickOutcome outcome = sim::simulate_pick(scene, scene_box(scene, last.boxes[0]), event, s);
   const int kind = static_cast<int>(outcome.event);
   t.turns_asked += event == sim::PickEvent::kTurn ? 1 : 0;
   t.turns_done += outcome.event == sim::PickEvent::kTurn ? 1 : 0;
-  const int other = outcome.neighbour ? detected_box(last, was.boxes[*outcome.neighbour]) : -1;
+  // The neighbour is matched where it stood before the pick.
+  const int other =
+      outcome.neighbour ? detected_box(last, scene.boxes[*outcome.neighbour].center - outcome.shift_m) : -1;
   sim::SimulatedFrame frame_after = sim::render(scene, profile, s + 7);
   const PickCheck c = check_pick(before, last, frame_after.frame, {0}, PickCheckParams{});
   ++t.checks;

@@ -42,4 +42,9 @@ PickOutcome simulate_pick(Scene& scene, std::size_t picked, PickEvent event, std
 
 const char* to_string(PickEvent event);
 
+/// Takes a box off the layer: lowered out of the camera's sight, as simulate_pick() does.
+void take_off(SimBox& box);
+/// Whether the box was taken off (take_off()).
+bool taken_off(const SimBox& box);
+
 }  // namespace palletd::sim
