@@ -14,49 +14,80 @@ Eigen::Vector2d ordering_position(const DetectedBox& box) {
   return box.in_layer.center;
 }
 
-void assign_pick_order(std::vector<DetectedBox>& boxes, PickOrder order) {
-  std::vector<std::size_t> idx(boxes.size());
+/// Pose noise moves a box's centre by a few millimetres: keys closer than this are one tie.
+constexpr double kOrderTie_m = 0.01;
+
+/// Each key's class: keys sorted ascending, a class holds the keys within `tolerance` of its
+/// first (smallest) one. Keys a few millimetres apart (boxes placed symmetrically about the
+/// reference, a row) land in one class whichever way noise orders them; the next key decides.
+std::vector<int> tie_classes(const std::vector<double>& keys, double tolerance) {
+  std::vector<std::size_t> idx(keys.size());
   std::iota(idx.begin(), idx.end(), std::size_t{0});
-  if (!boxes.empty()) {
-    // Reference point: the robot base (origin) when calibrated; else the layer's centroid.
-    Eigen::Vector2d reference = Eigen::Vector2d::Zero();
-    if (!boxes.front().base_position) {
-      for (const auto& b : boxes) reference += b.in_layer.center;
-      reference /= static_cast<double>(boxes.size());
+  std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return keys[a] < keys[b]; });
+  std::vector<int> out(keys.size(), 0);
+  int current = -1;
+  double first = 0.0;
+  for (const std::size_t i : idx) {
+    if (current < 0 || keys[i] - first > tolerance) {
+      ++current;
+      first = keys[i];
     }
-    // Rows are grouped with a tolerance of half the smallest box side.
-    double row_tolerance_m = 1e9;
-    for (const auto& b : boxes) row_tolerance_m = std::min(row_tolerance_m, 0.5 * b.short_m);
-    auto key_distance = [&](std::size_t i) { return (ordering_position(boxes[i]) - reference).norm(); };
-    switch (order) {
-      case PickOrder::kFarCornerFirst:
-        std::stable_sort(idx.begin(), idx.end(),
-                         [&](std::size_t a, std::size_t b) { return key_distance(a) > key_distance(b); });
-        break;
-      case PickOrder::kNearestFirst:
-        std::stable_sort(idx.begin(), idx.end(),
-                         [&](std::size_t a, std::size_t b) { return key_distance(a) < key_distance(b); });
-        break;
-      case PickOrder::kRowMajor:
-        std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
-          const Eigen::Vector2d pa = ordering_position(boxes[a]);
-          const Eigen::Vector2d pb = ordering_position(boxes[b]);
-          if (std::abs(pa.x() - pb.x()) > row_tolerance_m) return pa.x() < pb.x();
-          return pa.y() < pb.y();
-        });
-        break;
-    }
+    out[i] = current;
   }
+  return out;
+}
+
+}  // namespace
+
+void sort_by_pick_order(std::vector<DetectedBox>& boxes, PickOrder order) {
+  const std::size_t n = boxes.size();
+  if (n == 0) return;
+  // Reference point: the robot base (origin) when calibrated; else the layer's centroid.
+  Eigen::Vector2d reference = Eigen::Vector2d::Zero();
+  if (!boxes.front().base_position) {
+    for (const auto& b : boxes) reference += b.in_layer.center;
+    reference /= static_cast<double>(n);
+  }
+  std::vector<double> distance(n), x(n), y(n);
+  double row_tolerance_m = 1e9;  // rows: half the smallest box side
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d p = ordering_position(boxes[i]);
+    distance[i] = (p - reference).norm();
+    x[i] = p.x();
+    y[i] = p.y();
+    row_tolerance_m = std::min(row_tolerance_m, 0.5 * boxes[i].short_m);
+  }
+  // The order's own key first, then x (not within a row: a row goes by y), then y; keys compared
+  // as classes of ties, which keeps the comparison a strict weak order.
+  std::vector<int> primary, secondary(n, 0);
+  switch (order) {
+    case PickOrder::kFarCornerFirst:
+      primary = tie_classes(distance, kOrderTie_m);
+      for (int& c : primary) c = -c;
+      break;
+    case PickOrder::kNearestFirst:
+      primary = tie_classes(distance, kOrderTie_m);
+      break;
+    case PickOrder::kRowMajor:
+      primary = tie_classes(x, row_tolerance_m);
+      break;
+  }
+  if (order != PickOrder::kRowMajor) secondary = tie_classes(x, kOrderTie_m);
+  std::vector<std::size_t> idx(n);
+  std::iota(idx.begin(), idx.end(), std::size_t{0});
+  std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
+    if (primary[a] != primary[b]) return primary[a] < primary[b];
+    if (secondary[a] != secondary[b]) return secondary[a] < secondary[b];
+    return y[a] < y[b];
+  });
   std::vector<DetectedBox> sorted;
-  sorted.reserve(boxes.size());
-  for (std::size_t k = 0; k < idx.size(); ++k) {
-    sorted.push_back(boxes[idx[k]]);
+  sorted.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    sorted.push_back(std::move(boxes[idx[k]]));
     sorted.back().pick_index = static_cast<int>(k);
   }
   boxes = std::move(sorted);
 }
-
-}  // namespace
 
 void place_from_layer(DetectedBox& box, const Eigen::Isometry3d& T_camera_layer,
                       const std::optional<Eigen::Isometry3d>& T_base_camera) {
@@ -101,7 +132,7 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<LayoutBox>& boxes,
     place_from_layer(d, T_camera_layer, T_base_camera);
     out.push_back(std::move(d));
   }
-  assign_pick_order(out, order);
+  sort_by_pick_order(out, order);
   return out;
 }
 

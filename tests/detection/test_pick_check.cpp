@@ -9,6 +9,7 @@
 #include "palletd/core/statistics.hpp"
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/pick_check.hpp"
+#include "palletd/sim/pick.hpp"
 #include "palletd/sim/sim.hpp"
 
 #include "pick_check/check_internal.hpp"
@@ -73,12 +74,9 @@ int neighbour_of(const Picking& p, int i) {
   return best;
 }
 
-/// Scene without the given built boxes (they are lowered under the floor).
+/// Scene without the given built boxes (taken off the layer, sim::take_off()).
 sim::Scene without(sim::Scene scene, const std::vector<std::size_t>& gone) {
-  for (const std::size_t k : gone) {
-    scene.boxes[k].top_z_m = -1.0;
-    scene.boxes[k].bottom_z_m = -1.3;
-  }
+  for (const std::size_t k : gone) sim::take_off(scene.boxes[k]);
   return scene;
 }
 
@@ -159,9 +157,10 @@ TEST_CASE("pick check: a neighbour dragged toward the gap or turned is found, wi
       CHECK(c.verdict == PickVerdict::kNeighbourMoved);
       const BoxCheck& moved = c.boxes[static_cast<std::size_t>(neighbour)];
       CHECK(moved.moved);
-      // Its new pose where it stands (the shift is against the detected pose, which has its own
-      // error).
-      CHECK((moved.now.base_position->head<2>() - b.center).norm() < 0.003);
+      // Its new pose where it stands, within the check's own tolerance (5 mm; the shift is
+      // against the detected pose, which has its own error). The median over many moves (2 mm
+      // target) is the pick-check bench's figure, docs/benchmarks.md.
+      CHECK((moved.now.base_position->head<2>() - b.center).norm() < PickCheckParams{}.tolerance_mm * 1e-3);
     }
     // Turned by 3 degrees about its centre.
     sim::Scene turned = without(p.scene, {picked_box});

@@ -98,10 +98,9 @@ std::vector<DetectedBox> truth_plan(const sim::Scene& s, const Intrinsics& intri
   }
   // The configured order detect() starts from: far corner first, from the base origin (the
   // simulator's base is the pallet's centre).
-  std::stable_sort(boxes.begin(), boxes.end(), [](const DetectedBox& a, const DetectedBox& b) {
-    return a.in_layer.center.norm() > b.in_layer.center.norm();
-  });
-  for (std::size_t k = 0; k < boxes.size(); ++k) boxes[k].pick_index = static_cast<int>(k);
+  for (DetectedBox& d : boxes)
+    d.base_position = Eigen::Vector3d(d.in_layer.center.x(), d.in_layer.center.y(), 0.0);
+  sort_by_pick_order(boxes, PickOrder::kFarCornerFirst);
   PickSurroundings surroundings;
   surroundings.T_camera_layer = s.T_world_camera.inverse() * Eigen::Translation3d(0.0, 0.0, layer_top(s));
   surroundings.roi = roi;
