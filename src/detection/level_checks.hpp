@@ -67,9 +67,10 @@ std::optional<LevelVerdict> pieces_cut_by_image(const LayerResult& layer,
                                                 const std::vector<BoxFormat>& formats);
 
 /// Boxes with a seam line across their top at least as strong as one that tells one box from two
-/// (LayoutBox evidence interior_seam >= 0.5), on a camera that shows narrow seams (a fine pitch
-/// and mixed pixels at edges): no carton's top shows one, so the cartons stand otherwise than
-/// laid out (a pinwheel's mirror image, a row shifted by part of a carton): flagged (kOk).
+/// (LayoutBox evidence interior_seam >= 0.5), at a pixel pitch of 10 mm or finer (a stereo camera
+/// included: it hides narrow seams, but one it shows is there): no carton's top shows one, so the
+/// cartons stand otherwise than laid out (a pinwheel's mirror image, a row shifted by part of a
+/// carton): flagged (kOk).
 std::optional<LevelVerdict> seams_across_boxes(const LayoutResult& layout);
 
 /// Boxes whose own two opposite sides (LayoutBox evidence measured_long_m / measured_short_m)

@@ -323,7 +323,7 @@ TEST_CASE("depth seen past a box's side, under its overhang, is no hole in its t
   CHECK(boxes_over_holes(s.cloud, one_box_at(0.45), s.layer));  // a box where the rays meet the layer
 }
 
-TEST_CASE("a seam line across a box's top flags the layout where the camera shows seams", "[cell][flags]") {
+TEST_CASE("a seam line across a box's top flags the layout at a pitch that can show one", "[cell][flags]") {
   LayoutResult tof = layout_seen(0.005, 0.5, {0, 0, 0});  // 5 mm per pixel, mixed pixels at edges
   tof.boxes[1].evidence.interior_seam = 0.74;
   const std::optional<LevelVerdict> v = seams_across_boxes(tof);
@@ -333,7 +333,12 @@ TEST_CASE("a seam line across a box's top flags the layout where the camera show
              Catch::Contains("1 box(es) have a seam line across their top (strength up to 0.74)"));
   tof.boxes[1].evidence.interior_seam = 0.3;  // a weak line: tape, print, noise
   CHECK_FALSE(seams_across_boxes(tof));
-  // Where the camera does not show narrow seams a line across a top is not read as one.
+  // A stereo camera (no mixed pixels at edges) smooths narrow seams away, but one it shows across
+  // a top is a seam: a mirrored pinwheel on a d435 at 6.6 mm per pixel showed 0.67.
+  LayoutResult stereo = layout_seen(0.0066, 0.0, {0, 0, 0});
+  stereo.boxes[1].evidence.interior_seam = 0.67;
+  CHECK(seams_across_boxes(stereo));
+  // At a pitch too coarse to draw a line across a top, a "line" is not read as one.
   LayoutResult coarse = layout_seen(0.015, 0.7, {0, 0, 0});
   coarse.boxes[1].evidence.interior_seam = 0.9;
   CHECK_FALSE(seams_across_boxes(coarse));
