@@ -320,6 +320,33 @@ TEST_CASE("refine: joint solve chains a pressed row to its measured ends", "[ref
   CHECK(boxes[1].half.x() == Approx(0.2).margin(0.0005));
 }
 
+TEST_CASE("refine: joint solve spreads a row over its ends when a misread seam calls one carton oversize",
+          "[refine]") {
+  using namespace layout_detail;
+  // Three 400 mm cartons in a row, built 416 mm: the row's ends are measured 1248 mm apart. The
+  // seam between boxes 1 and 2 is unseen (pressed); the one between boxes 0 and 1 is misread
+  // 15 mm into box 1, loosely, and box 1's side of it is not seen. Read alone, box 0 is 430 mm,
+  // over what a carton of the format is built; the row's ends and the batch say 416 mm. The fit
+  // keeps every box inside the row's ends and the misread seam gives way.
+  std::vector<JointBox> boxes(3);
+  for (int i = 0; i < 3; ++i) {
+    boxes[static_cast<std::size_t>(i)].center = Eigen::Vector2d(-0.416 + 0.416 * i, 0.0);
+    boxes[static_cast<std::size_t>(i)].half = boxes[static_cast<std::size_t>(i)].half_nominal =
+        Eigen::Vector2d(0.2, 0.15);
+  }
+  const std::vector<SideObservation> sides{
+      {0, 0, -1, -0.624, 0.0009}, {0, 0, 1, -0.194, 0.0049}, {2, 0, 1, 0.624, 0.0011}};
+  const std::vector<Contact> contacts{{1, 2, 0, 0.002}};
+  const std::vector<Contact> neighbours{{0, 1, 0, 0.002}, {1, 2, 0, 0.002}};
+  solve_joint(boxes, sides, contacts, JointParams{}, neighbours);
+  for (int i = 0; i < 3; ++i) {
+    INFO("box " << i << " centre " << boxes[static_cast<std::size_t>(i)].center.x() * 1000 << " mm, half "
+                << boxes[static_cast<std::size_t>(i)].half.x() * 1000 << " mm");
+    CHECK(boxes[static_cast<std::size_t>(i)].center.x() == Approx(-0.416 + 0.416 * i).margin(0.004));
+  }
+  CHECK(boxes[2].center.x() + boxes[2].half.x() == Approx(0.624).margin(0.002));
+}
+
 TEST_CASE("refine: joint solve sizes a turned carton like its batch measured along the other axis",
           "[refine]") {
   using namespace layout_detail;

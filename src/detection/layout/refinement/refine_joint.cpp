@@ -233,8 +233,11 @@ void solve_axis(std::vector<JointBox>& boxes, const std::vector<SideObservation>
         changed = true;
       }
     }
-    // Sizes outside the tolerance are held at its bound.
-    for (Eigen::Index i = 0; i < n; ++i) {
+    // Sizes outside the tolerance are held at its bound, once the robust weights and the solid
+    // pairs have settled: a size pushed out by a side the Huber weights have yet to discount, or
+    // by a pair about to be pressed, is no measurement of the box.
+    const bool settled = !changed;
+    for (Eigen::Index i = 0; i < n && settled; ++i) {
       const auto ui = static_cast<std::size_t>(i);
       const double nom = boxes[ui].half_nominal[axis];
       const double lo = nom - 0.5 * params.size_tolerance_m, hi = half_upper(nom, params);
