@@ -151,8 +151,10 @@ TEST_CASE("a box placed worse than two pixel pitches flags the layout, whatever 
   CHECK(uncertain_positions(finer, RefineParams{}));
 }
 
-TEST_CASE("the position limit grows with the pixel pitch: a coarse camera places a side to a pixel",
-          "[cell][flags]") {
+TEST_CASE(
+    "the position limit grows with the pixel pitch where configured: a coarse camera places a side to a "
+    "pixel",
+    "[cell][flags]") {
   // 16 mm per pixel: 2 pitches are 32 mm, so 19 mm is as well as this camera places a side.
   LayoutResult coarse = layout_seen(0.016, 0.8, {0, 0, 0});
   coarse.boxes[1].evidence.position_sigma_m = 0.019;
@@ -162,12 +164,19 @@ TEST_CASE("the position limit grows with the pixel pitch: a coarse camera places
   const std::optional<LevelVerdict> v = uncertain_positions(coarse, position_limits(10.0, 2.0));
   REQUIRE(v);
   CHECK_THAT(v->message, Catch::Contains("less surely than 32 mm") && Catch::Contains("pitch of 16 mm"));
-  // By default one pitch: a box the fit places worse than a pixel is not placed by what it sees.
+  // One pitch: a box placed to 15 mm passes on this camera, one worse than a pixel does not.
+  coarse.boxes[1].evidence.position_sigma_m = 0.015;
+  CHECK_FALSE(uncertain_positions(coarse, position_limits(10.0, 1.0)));
   coarse.boxes[1].evidence.position_sigma_m = 0.019;
+  CHECK_THAT(uncertain_positions(coarse, position_limits(10.0, 1.0))->message,
+             Catch::Contains("less surely than 16 mm"));
+  // By default the millimetres hold whatever the camera: a gripper's tolerance does not grow
+  // with its pixels (a box placed to 11 mm at 15 mm per pixel came out 16.5 mm off).
+  coarse.boxes[1].evidence.position_sigma_m = 0.011;
   const std::optional<LevelVerdict> by_default = uncertain_positions(coarse, RefineParams{});
   REQUIRE(by_default);
-  CHECK_THAT(by_default->message, Catch::Contains("less surely than 16 mm"));
-  coarse.boxes[1].evidence.position_sigma_m = 0.015;
+  CHECK_THAT(by_default->message, Catch::Contains("less surely than 10 mm"));
+  coarse.boxes[1].evidence.position_sigma_m = 0.009;
   CHECK_FALSE(uncertain_positions(coarse, RefineParams{}));
 }
 

@@ -125,11 +125,13 @@ struct RefineParams {
   /// hold it are not seen well enough to promise it within a gripper's tolerance (cartons pressed
   /// together without a seam, an edge seen at a grazing angle) [mm]. 0 = never.
   double max_position_sigma_mm = 10.0;
-  /// ... and than this many pixel pitches on the layer: a side the camera sees is placed to within
-  /// a pixel, so a box the fit places no better than one pitch is held by its prior and its
-  /// neighbours, not by what the frame shows (at 15 mm per pixel, oversize cartons pressed in an
-  /// interlock come out 30-50 mm off with sigmas of 18-20 mm; exact ones stay under 10 mm).
-  double max_position_sigma_px = 1.0;
+  /// ... and than this many pixel pitches on the layer; 0 = the millimetres alone, whatever the
+  /// camera. A coarse camera places a side it sees to about a pixel, but a gripper's tolerance
+  /// does not grow with the camera's pixels: at 15 mm per pixel a box placed to 11 mm (one sigma)
+  /// came out 16.5 mm off, beyond the 15 mm a pick allows. An integrator who would rather have a
+  /// coarse camera's layouts unflagged sets 1 (a box placed no better than one pitch is held by
+  /// its prior and its neighbours, not by what the frame shows).
+  double max_position_sigma_px = 0.0;
 };
 
 /// What the outline leaves open (src/detection/layout/completion/, the uncovered flag).
