@@ -2,6 +2,7 @@
 // frame, and where a box's sides step down.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -38,13 +39,30 @@ class Grid {
   /// `drop_m` below it a lower cell (a top in the same cell wins).
   void add_frame(const Frame& frame, const RayTable& rays, const Eigen::Isometry3d& T_layer_camera,
                  double band_m, double drop_m);
-  [[nodiscard]] Seen at(const Eigen::Vector2d& p_m) const;
+  [[nodiscard]] Seen at(const Eigen::Vector2d& p_m) const {
+    const std::ptrdiff_t k = index(p_m);
+    return k < 0 ? Seen::kUnknown : cells_[static_cast<std::size_t>(k)];
+  }
+  /// The layer point that made the cell at p_m a top (the first one), nullptr where it is none.
+  [[nodiscard]] const Eigen::Vector2f* top_point(const Eigen::Vector2d& p_m) const {
+    const std::ptrdiff_t k = index(p_m);
+    if (k < 0 || cells_[static_cast<std::size_t>(k)] != Seen::kTop) return nullptr;
+    return &top_points_[static_cast<std::size_t>(k)];
+  }
+  [[nodiscard]] double cell_m() const { return 1.0 / inv_cell_; }
 
  private:
+  /// The cell's index, -1 outside the grid.
+  [[nodiscard]] std::ptrdiff_t index(const Eigen::Vector2d& p_m) const {
+    const double fx = (p_m.x() - lo_m_.x()) * inv_cell_, fy = (p_m.y() - lo_m_.y()) * inv_cell_;
+    if (!(fx >= 0.0 && fy >= 0.0 && fx < nx_ && fy < ny_)) return -1;
+    return static_cast<std::ptrdiff_t>(fy) * nx_ + static_cast<std::ptrdiff_t>(fx);
+  }
   Eigen::Vector2d lo_m_;
   double inv_cell_;  ///< 1 / the cell size [1/m]
   int nx_ = 0, ny_ = 0;
   std::vector<Seen> cells_;
+  std::vector<Eigen::Vector2f> top_points_;  ///< per cell, the point of a top cell [m]
 };
 
 /// Share of the rectangle's seen cells (top or lower) that are top, inset by `inset_m`;
@@ -63,7 +81,9 @@ struct EdgeSample {
 };
 
 /// Where the box's sides step down in the grid, along lines across each side every 10 mm,
-/// looking `reach_m` inward and outward. A side that abuts another box's top shows no step.
+/// looking `reach_m` inward and outward: the outermost top point within a cell of the line
+/// before the first lower cell on it (a pixel straddling the edge is the side's last top point,
+/// wherever the grid's cells cut the pixels). A side that abuts another box's top shows no step.
 /// Samples come in a fixed order (side, then position), with nullopt where no step was found.
 std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2d& box, double reach_m);
 

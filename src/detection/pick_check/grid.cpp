@@ -19,6 +19,7 @@ Grid::Grid(const Eigen::Vector2d& lo_m, const Eigen::Vector2d& hi_m, double cell
   nx_ = std::max(1, static_cast<int>(std::ceil((hi_m.x() - lo_m.x()) / cell_m)));
   ny_ = std::max(1, static_cast<int>(std::ceil((hi_m.y() - lo_m.y()) / cell_m)));
   cells_.assign(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_), Seen::kUnknown);
+  top_points_.assign(cells_.size(), Eigen::Vector2f::Zero());
 }
 
 void Grid::add_frame(const Frame& frame, const RayTable& rays, const Eigen::Isometry3d& T_layer_camera,
@@ -39,19 +40,15 @@ void Grid::add_frame(const Frame& frame, const RayTable& rays, const Eigen::Isom
       seen = Seen::kLower;
     else
       continue;
-    const double fx = (R(0, 0) * x_m + R(0, 1) * y_m + R(0, 2) * z_m + t.x() - lo_m_.x()) * inv_cell_;
-    const double fy = (R(1, 0) * x_m + R(1, 1) * y_m + R(1, 2) * z_m + t.y() - lo_m_.y()) * inv_cell_;
-    if (!(fx >= 0.0 && fy >= 0.0 && fx < nx_ && fy < ny_)) continue;
-    Seen& cell =
-        cells_[static_cast<std::size_t>(fy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(fx)];
-    if (cell != Seen::kTop) cell = seen;
+    const Eigen::Vector2d q(R(0, 0) * x_m + R(0, 1) * y_m + R(0, 2) * z_m + t.x(),
+                            R(1, 0) * x_m + R(1, 1) * y_m + R(1, 2) * z_m + t.y());
+    const std::ptrdiff_t k = index(q);
+    if (k < 0) continue;
+    Seen& cell = cells_[static_cast<std::size_t>(k)];
+    if (cell == Seen::kTop) continue;
+    cell = seen;
+    if (seen == Seen::kTop) top_points_[static_cast<std::size_t>(k)] = q.cast<float>();
   }
-}
-
-Seen Grid::at(const Eigen::Vector2d& p_m) const {
-  const double fx = (p_m.x() - lo_m_.x()) * inv_cell_, fy = (p_m.y() - lo_m_.y()) * inv_cell_;
-  if (!(fx >= 0.0 && fy >= 0.0 && fx < nx_ && fy < ny_)) return Seen::kUnknown;
-  return cells_[static_cast<std::size_t>(fy) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(fx)];
 }
 
 namespace {
@@ -88,19 +85,34 @@ double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_c
 namespace {
 
 /// Where, along the line p + s n for s in [-reach, reach], the top ends before the first lower
-/// sample (the step down): at the last top sample. Cells between may be unknown, the side's
-/// own shadow where the camera looks past the edge, so the lower sample says only that the step
-/// came before it. nullopt without one.
+/// cell (the step down): at the outermost top point (along n) in the cells the line crosses and
+/// their neighbours one cell to either side along t. A grid of one cell per pixel leaves cells
+/// between the pixels empty, so the line alone may miss the pixel that straddles the edge. Cells
+/// between may be unknown, the side's own shadow where the camera looks past the edge, so the
+/// lower cell says only that the step came before it. nullopt without one.
 std::optional<double> step_along(const Grid& grid, const Eigen::Vector2d& p, const Eigen::Vector2d& n,
-                                 double reach_m) {
-  constexpr double kStep_m = 0.002;
-  std::optional<double> last_top;
-  for (double s = -reach_m; s <= reach_m; s += kStep_m) {
-    const Seen seen = grid.at(p + s * n);
-    if (seen == Seen::kTop)
-      last_top = s;
-    else if (seen == Seen::kLower && last_top)
-      return *last_top + 0.5 * kStep_m;
+                                 const Eigen::Vector2d& t, double reach_m) {
+  // Half a cell: every cell the line crosses is looked at; where the step lies comes from the
+  // points, not from the stepping.
+  const double step_m = std::max(0.002, 0.5 * grid.cell_m());
+  const Eigen::Vector2d beside = grid.cell_m() * t;
+  std::optional<double> outermost;
+  for (double s = -reach_m; s <= reach_m; s += step_m) {
+    const Eigen::Vector2d at = p + s * n;
+    bool top = false;
+    auto take = [&](const Eigen::Vector2d& c) {
+      const Eigen::Vector2f* q = grid.top_point(c);
+      if (q == nullptr) return;
+      top = true;
+      const double along_n = (q->cast<double>() - p).dot(n);
+      outermost = outermost ? std::max(*outermost, along_n) : along_n;
+    };
+    take(at);
+    if (!top) {  // the cells beside count where the line's own cell is no top: a hole, the edge
+      take(at - beside);
+      take(at + beside);
+    }
+    if (!top && outermost && grid.at(at) == Seen::kLower) return outermost;
   }
   return std::nullopt;
 }
@@ -115,14 +127,16 @@ std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2
   for (int side = 0; side < 4; ++side) {
     const int axis = side / 2;
     const double sign = side % 2 == 0 ? 1.0 : -1.0;
-    Eigen::Vector2d n_box = Eigen::Vector2d::Zero();
+    Eigen::Vector2d n_box = Eigen::Vector2d::Zero(), t_box = Eigen::Vector2d::Zero();
     n_box[axis] = sign;
+    t_box[1 - axis] = 1.0;
     const double along_half = half[1 - axis] - kCornerKeepOut_m;
     for (double a = -along_half; a <= along_half + 1e-9; a += kSpacing_m) {
       Eigen::Vector2d p_box = Eigen::Vector2d::Zero();
       p_box[axis] = sign * half[axis];
       p_box[1 - axis] = a;
-      const std::optional<double> step = step_along(grid, box.center + R * p_box, R * n_box, reach_m);
+      const std::optional<double> step =
+          step_along(grid, box.center + R * p_box, R * n_box, R * t_box, reach_m);
       if (!step) {
         out.emplace_back(std::nullopt);
         continue;
