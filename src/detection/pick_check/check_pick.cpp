@@ -59,6 +59,22 @@ std::string frames_problem(const Frame& before, const Frame& after) {
   return {};
 }
 
+/// How the grid's steps sit against the detection's sides in the frame the result came from, for
+/// sides facing the camera and sides facing away: a side facing the camera shows the top of its
+/// wall within the top's band, beyond the edge, one facing away does not.
+struct EdgeBias {
+  Eigen::Vector3d camera_layer = Eigen::Vector3d::UnitZ();  ///< the camera in the layer frame [m]
+  double facing_m = 0.0, away_m = 0.0;
+  [[nodiscard]] bool facing(const Box2d& box, const EdgeSample& s) const {
+    const Eigen::Rotation2Dd R(box.yaw_rad);
+    const Eigen::Vector2d at = box.center + R * s.point_box;
+    return (R * s.normal_box).dot(camera_layer.head<2>() - at) > 0.0;
+  }
+  [[nodiscard]] double of(const Box2d& box, const EdgeSample& s) const {
+    return facing(box, s) ? facing_m : away_m;
+  }
+};
+
 /// The box moved by `move` (box frame: along its long side, its short side [m], turn [rad]).
 DetectedBox moved_box(const DetectedBox& box, const Eigen::Vector3d& move,
                       const Eigen::Isometry3d& T_camera_layer,
@@ -74,8 +90,8 @@ DetectedBox moved_box(const DetectedBox& box, const Eigen::Vector3d& move,
 /// around the estimate (three rounds, so a box moved 40 mm is looked for where it went) and
 /// compared with where the frame before showed them; a side only the frame after shows (one the
 /// pick laid open) is compared with the side as detected, less the offset the frame before shows
-/// on average (`bias_m`).
-pick_check::Move box_move(const Grid& before, const Grid& after, const Box2d& box, double bias_m,
+/// on average on sides facing the camera as this one does (`bias`).
+pick_check::Move box_move(const Grid& before, const Grid& after, const Box2d& box, const EdgeBias& bias,
                           int& sides_seen) {
   const auto was = pick_check::edge_samples(before, box, kReach_m);
   const Eigen::Rotation2Dd R(box.yaw_rad);
@@ -90,7 +106,7 @@ pick_check::Move box_move(const Grid& before, const Grid& after, const Box2d& bo
     for (std::size_t k = 0; k < now.size(); ++k) {
       if (!now[k]) continue;
       EdgeSample m = *now[k];
-      m.offset_m += pick_check::move_jacobian(m).dot(move.x) - (was[k] ? was[k]->offset_m : bias_m);
+      m.offset_m += pick_check::move_jacobian(m).dot(move.x) - (was[k] ? was[k]->offset_m : bias.of(box, m));
       moves.push_back(m);
       ++per_side[m.side];
     }
@@ -118,14 +134,21 @@ pick_check::Move box_move(const Grid& before, const Grid& after, const Box2d& bo
   return move;
 }
 
-/// The median offset of the sides' steps from the detected sides in the frame the result came
-/// from: how the grid's steps sit against the detection's outlines.
-double edge_bias(const Grid& before, const std::vector<DetectedBox>& boxes) {
-  std::vector<double> offsets;
+/// The median offsets of the sides' steps from the detected sides in the frame the result came
+/// from, apart for sides facing the camera and away (each the other's, or 0, without samples).
+EdgeBias edge_bias(const Grid& before, const std::vector<DetectedBox>& boxes,
+                   const Eigen::Vector3d& camera_layer) {
+  EdgeBias bias;
+  bias.camera_layer = camera_layer;
+  std::vector<double> facing, away;
   for (const DetectedBox& b : boxes)
     for (const auto& s : pick_check::edge_samples(before, b.in_layer, kReach_m))
-      if (s) offsets.push_back(s->offset_m);
-  return upper_median(std::move(offsets));
+      if (s) (bias.facing(b.in_layer, *s) ? facing : away).push_back(s->offset_m);
+  if (facing.empty()) facing = away;
+  if (away.empty()) away = facing;
+  bias.facing_m = upper_median(std::move(facing));
+  bias.away_m = upper_median(std::move(away));
+  return bias;
 }
 
 /// Presence once more with the moved boxes' tops, where they stand now (grown by the error of
@@ -210,7 +233,7 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   Grid was(lo, hi, cell_m), now(lo, hi, cell_m);
   was.add_frame(before, rays, T_layer_camera, pick_check::kBand_m, pick_check::kDrop_m);
   now.add_frame(after, rays, T_layer_camera, pick_check::kBand_m, pick_check::kDrop_m);
-  const double bias_m = edge_bias(was, last.boxes);
+  const EdgeBias bias = edge_bias(was, last.boxes, T_layer_camera.translation());
 
   for (std::size_t i = 0; i < last.boxes.size(); ++i) {
     const DetectedBox& box = last.boxes[i];
@@ -222,7 +245,7 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
     c.present = seen_cells < kMinSeenCells || c.seen_share >= 0.5;
     c.now = box;
     if (c.present && !c.picked) {
-      const pick_check::Move move = box_move(was, now, box.in_layer, bias_m, c.sides_seen);
+      const pick_check::Move move = box_move(was, now, box.in_layer, bias, c.sides_seen);
       c.shift_mm = 1e3 * move.x.head<2>().norm();
       c.turn_deg = std::abs(move.x.z()) * 180.0 / M_PI;
       // Moved: beyond the tolerance, and beyond what the sides' scatter explains.
