@@ -38,16 +38,21 @@ Picking start(const std::string& profile_name, std::uint64_t seed, const sim::Sc
   return p;
 }
 
-/// A block layer of `format` at 1.5-2.2 m, the camera tilted up to 10 degrees.
-Picking start(const std::string& profile_name, std::uint64_t seed,
-              const std::string& format = "400x300x250") {
+/// A block layer of `format` at 1.5-2.2 m, the camera tilted up to `tilt_max_deg`.
+sim::ScenarioOptions block_layer(const std::string& format, double tilt_max_deg) {
   sim::ScenarioOptions o;
   o.pattern = sim::PatternFamily::kBlock;
   o.formats = {*sim::parse_format(format)};
-  o.tilt_max_deg = 10.0;
+  o.tilt_max_deg = tilt_max_deg;
   o.height_min_m = 1.5;
   o.height_max_m = 2.2;
-  Picking p = start(profile_name, seed, o);
+  return o;
+}
+
+/// A block layer of `format` at 1.5-2.2 m, the camera tilted up to 10 degrees.
+Picking start(const std::string& profile_name, std::uint64_t seed,
+              const std::string& format = "400x300x250") {
+  Picking p = start(profile_name, seed, block_layer(format, 10.0));
   REQUIRE(p.last.boxes.size() == p.scene.top_layer.size());
   return p;
 }
@@ -286,13 +291,8 @@ TEST_CASE("pick check: a bad frame or a bad box index fails the check, naming it
 // offset taken over all sides reads the open side of a box that faces the camera as a move.
 TEST_CASE("pick check: a clean pick seen by a tilted camera reads no move in the sides it lays open",
           "[pick_check]") {
+  const sim::ScenarioOptions o = block_layer("400x300x250", 30.0);
   for (const std::string profile : {"o3d303", "helios2"}) {
-    sim::ScenarioOptions o;
-    o.pattern = sim::PatternFamily::kBlock;
-    o.formats = {*sim::parse_format("400x300x250")};
-    o.tilt_max_deg = 30.0;
-    o.height_min_m = 1.5;
-    o.height_max_m = 2.2;
     std::vector<double> widest_px;  // per layer, the widest shift of a box left standing [pixels]
     for (const std::uint64_t seed : {571U, 572U, 573U, 574U}) {
       const Picking p = start(profile, seed, o);
