@@ -86,14 +86,16 @@ DetectedBox moved_box(const DetectedBox& box, const Eigen::Vector3d& move,
   return out;
 }
 
+/// One box's side samples (pick_check::edge_samples).
+using SideSamples = std::vector<std::optional<EdgeSample>>;
+
 /// The box's move between the two grids. Its sides' steps are found in the frame after the pick
 /// around the estimate (three rounds, so a box moved 40 mm is looked for where it went) and
-/// compared with where the frame before showed them; a side only the frame after shows (one the
-/// pick laid open) is compared with the side as detected, less the offset the frame before shows
-/// on average on sides facing the camera as this one does (`bias`).
-pick_check::Move box_move(const Grid& before, const Grid& after, const Box2d& box, const EdgeBias& bias,
+/// compared with where the frame before showed them (`was`, its samples there); a side only the
+/// frame after shows (one the pick laid open) is compared with the side as detected, less the
+/// offset the frame before shows on average on sides facing the camera as this one does (`bias`).
+pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d& box, const EdgeBias& bias,
                           int& sides_seen) {
-  const auto was = pick_check::edge_samples(before, box, kReach_m);
   const Eigen::Rotation2Dd R(box.yaw_rad);
   pick_check::Move move;
   for (int round = 0; round < 3; ++round) {
@@ -136,14 +138,15 @@ pick_check::Move box_move(const Grid& before, const Grid& after, const Box2d& bo
 
 /// The median offsets of the sides' steps from the detected sides in the frame the result came
 /// from, apart for sides facing the camera and away (each the other's, or 0, without samples).
-EdgeBias edge_bias(const Grid& before, const std::vector<DetectedBox>& boxes,
+/// `was`: each box's samples in that frame.
+EdgeBias edge_bias(const std::vector<SideSamples>& was, const std::vector<DetectedBox>& boxes,
                    const Eigen::Vector3d& camera_layer) {
   EdgeBias bias;
   bias.camera_layer = camera_layer;
   std::vector<double> facing, away;
-  for (const DetectedBox& b : boxes)
-    for (const auto& s : pick_check::edge_samples(before, b.in_layer, kReach_m))
-      if (s) (bias.facing(b.in_layer, *s) ? facing : away).push_back(s->offset_m);
+  for (std::size_t i = 0; i < boxes.size(); ++i)
+    for (const auto& s : was[i])
+      if (s) (bias.facing(boxes[i].in_layer, *s) ? facing : away).push_back(s->offset_m);
   if (facing.empty()) facing = away;
   if (away.empty()) away = facing;
   bias.facing_m = upper_median(std::move(facing));
@@ -233,7 +236,10 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   Grid was(lo, hi, cell_m), now(lo, hi, cell_m);
   was.add_frame(before, rays, T_layer_camera, pick_check::kBand_m, pick_check::kDrop_m);
   now.add_frame(after, rays, T_layer_camera, pick_check::kBand_m, pick_check::kDrop_m);
-  const EdgeBias bias = edge_bias(was, last.boxes, T_layer_camera.translation());
+  std::vector<SideSamples> samples_before;  // each box's sides in the frame before, once
+  samples_before.reserve(last.boxes.size());
+  for (const DetectedBox& b : last.boxes) samples_before.push_back(pick_check::edge_samples(was, b.in_layer, kReach_m));
+  const EdgeBias bias = edge_bias(samples_before, last.boxes, T_layer_camera.translation());
 
   for (std::size_t i = 0; i < last.boxes.size(); ++i) {
     const DetectedBox& box = last.boxes[i];
@@ -245,7 +251,7 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
     c.present = seen_cells < kMinSeenCells || c.seen_share >= 0.5;
     c.now = box;
     if (c.present && !c.picked) {
-      const pick_check::Move move = box_move(was, now, box.in_layer, bias, c.sides_seen);
+      const pick_check::Move move = box_move(samples_before[i], now, box.in_layer, bias, c.sides_seen);
       c.shift_mm = 1e3 * move.x.head<2>().norm();
       c.turn_deg = std::abs(move.x.z()) * 180.0 / M_PI;
       // Moved: beyond the tolerance, and beyond what the sides' scatter explains.
