@@ -314,3 +314,54 @@ TEST_CASE("pick check: a clean pick seen by a tilted camera reads no move in the
     CHECK(upper_median(widest_px) < 0.75);
   }
 }
+
+TEST_CASE("pick check: lines across a side that read the same pixel count once in the move's uncertainty",
+          "[pick_check]") {
+  // Two sides at a 20 mm pixel pitch, read by lines 10 mm apart: each pixel's step is read twice.
+  const double pitch_m = 0.020;
+  std::vector<pick_check::EdgeSample> once, twice;
+  for (const int side : {0, 2}) {
+    for (int j = -8; j <= 7; ++j) {
+      const double step_m = 0.002 * std::sin(1.7 * j + side);  // the pixel's reading
+      for (int line = 0; line < 2; ++line) {
+        pick_check::EdgeSample s;
+        const double along_m = pitch_m * j + pick_check::kSampleSpacing_m * line;
+        s.side = side;
+        s.normal_box = side == 0 ? Eigen::Vector2d::UnitX() : Eigen::Vector2d::UnitY();
+        s.point_box = side == 0 ? Eigen::Vector2d(0.2, along_m) : Eigen::Vector2d(along_m, 0.15);
+        s.offset_m = step_m;
+        twice.push_back(s);
+        if (line == 0) once.push_back(s);
+      }
+    }
+  }
+  const pick_check::Move one_line = pick_check::fit_move(once, 0.0);
+  const pick_check::Move two_lines = pick_check::fit_move(twice, pitch_m);
+  for (int k = 0; k < 3; ++k) {
+    CAPTURE(k, one_line.covariance(k, k), two_lines.covariance(k, k));
+    // Counting every line as a sample halves the variance: a turn of a pixel over a side is
+    // then taken for a move.
+    CHECK(two_lines.covariance(k, k) == Approx(one_line.covariance(k, k)).epsilon(0.25));
+  }
+}
+
+TEST_CASE("pick check: a stray step in the frame before does not set where laid-open sides belong",
+          "[pick_check]") {
+  // A block of four 600x400 seen by a stereo camera whose frame before shows one step in all of
+  // the layer's outer sides (its edges smoothed and shadowed): each side a pick lays open is
+  // measured against the detected side, not against that one sample.
+  sim::ScenarioOptions o;
+  o.pattern = sim::PatternFamily::kBlock;
+  const std::uint64_t seed = sim::frame_seed(91037, 35);
+  const Picking p = start("d435", seed, o);
+  REQUIRE(p.last.boxes.size() == 4);
+  double widest_mm = 0.0;
+  for (std::size_t i = 0; i < p.last.boxes.size(); ++i) {
+    const int picked = static_cast<int>(i);
+    const PickCheck c = check(p, without(p.scene, {scene_box(p, picked)}), {picked}, seed + i + 1);
+    for (const BoxCheck& b : c.boxes)
+      if (!b.picked && b.present) widest_mm = std::max(widest_mm, b.shift_mm);
+  }
+  CAPTURE(widest_mm);
+  CHECK(widest_mm < 20.0);
+}

@@ -85,11 +85,14 @@ struct EdgeSample {
 /// before the first lower cell on it (a pixel straddling the edge is the side's last top point,
 /// wherever the grid's cells cut the pixels). A side that abuts another box's top shows no step.
 /// Samples come in a fixed order (side, then position), with nullopt where no step was found.
+constexpr double kSampleSpacing_m = 0.010;  ///< between the lines across a side
 std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2d& box, double reach_m);
 
 /// The box's move (box frame: shift along its long and short sides [m], turn [rad]) that best
 /// explains how its sides moved (robust least squares; a direction no side constrains stays 0),
-/// and its covariance from the samples' scatter.
+/// and its covariance from the samples' scatter. Samples closer along a side than `correlated_m`
+/// read the same pixels (a coarse pitch, a step taken from a cell beside the line): the scatter
+/// counts one independent sample per `correlated_m`, not one per line.
 struct Move {
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
@@ -97,7 +100,7 @@ struct Move {
   /// x against its covariance (squared Mahalanobis length): above 16, a move beyond 4 sigma.
   [[nodiscard]] double significance() const { return x.dot(covariance.ldlt().solve(x)); }
 };
-Move fit_move(const std::vector<EdgeSample>& moves);
+Move fit_move(const std::vector<EdgeSample>& moves, double correlated_m);
 
 /// d(side offset) / d(move) of a sample: along the side's normal, and the turn's lever.
 Eigen::Vector3d move_jacobian(const EdgeSample& sample);

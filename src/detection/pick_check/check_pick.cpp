@@ -40,12 +40,17 @@ using pick_check::Grid;
 constexpr double kCheckInset_m = 0.02;
 /// Sides are looked for this far inward and outward of where they were.
 constexpr double kReach_m = 0.06;
+/// A side's step is read from the top point in the line's cell or a cell beside it: lines
+/// within this many cells share pixels.
+constexpr double kCorrelatedCells = 2.0;
 /// A move counts when it lies beyond 3 sigma of its estimate (squared Mahalanobis length).
 constexpr double kSignificance = 9.0;
 /// How well the detection placed a side the frame before did not show (a seam not seen): a
 /// side the pick laid open is measured against it.
 constexpr double kReference_m = 0.004;
 constexpr double kReference_rad = 0.6 * M_PI / 180.0;
+/// Fewer side samples than this in the frame before (about a side's worth) give no offset.
+constexpr std::size_t kMinBiasSamples = 20;
 /// Fewer seen cells than this: the box's top was not seen (hidden, no depth), taken as there.
 constexpr int kMinSeenCells = 20;
 
@@ -114,7 +119,7 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
     }
     sides_seen = static_cast<int>(
         std::count_if(std::begin(per_side), std::end(per_side), [](int n) { return n >= 3; }));
-    move = pick_check::fit_move(moves);
+    move = pick_check::fit_move(moves, kCorrelatedCells * after.cell_m());
     // A side compared with the detected side shares that side's error, an offset (kReference_m)
     // and a turn (kReference_rad) common to its samples: both add to the move's uncertainty.
     Eigen::Vector3d offset_lever[4], turn_lever[4];
@@ -137,7 +142,8 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
 }
 
 /// The median offsets of the sides' steps from the detected sides in the frame the result came
-/// from, apart for sides facing the camera and away (each the other's, or 0, without samples).
+/// from, apart for sides facing the camera and away (each the other's, or 0, where fewer than
+/// kMinBiasSamples samples show them).
 /// `was`: each box's samples in that frame.
 EdgeBias edge_bias(const std::vector<SideSamples>& was, const std::vector<DetectedBox>& boxes,
                    const Eigen::Vector3d& camera_layer) {
@@ -147,6 +153,9 @@ EdgeBias edge_bias(const std::vector<SideSamples>& was, const std::vector<Detect
   for (std::size_t i = 0; i < boxes.size(); ++i)
     for (const auto& s : was[i])
       if (s) (bias.facing(boxes[i].in_layer, *s) ? facing : away).push_back(s->offset_m);
+  // Too few samples say nothing about the camera's offsets: the detected side stands as it is.
+  if (facing.size() < kMinBiasSamples) facing.clear();
+  if (away.size() < kMinBiasSamples) away.clear();
   if (facing.empty()) facing = away;
   if (away.empty()) away = facing;
   bias.facing_m = upper_median(std::move(facing));

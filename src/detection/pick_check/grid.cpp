@@ -123,7 +123,7 @@ std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2
   const Eigen::Matrix2d R = Eigen::Rotation2Dd(box.yaw_rad).toRotationMatrix();
   const double half[2] = {0.5 * box.long_m, 0.5 * box.short_m};
   std::vector<std::optional<EdgeSample>> out;
-  constexpr double kSpacing_m = 0.010, kCornerKeepOut_m = 0.015;
+  constexpr double kCornerKeepOut_m = 0.015;
   for (int side = 0; side < 4; ++side) {
     const int axis = side / 2;
     const double sign = side % 2 == 0 ? 1.0 : -1.0;
@@ -131,7 +131,7 @@ std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2
     n_box[axis] = sign;
     t_box[1 - axis] = 1.0;
     const double along_half = half[1 - axis] - kCornerKeepOut_m;
-    for (double a = -along_half; a <= along_half + 1e-9; a += kSpacing_m) {
+    for (double a = -along_half; a <= along_half + 1e-9; a += kSampleSpacing_m) {
       Eigen::Vector2d p_box = Eigen::Vector2d::Zero();
       p_box[axis] = sign * half[axis];
       p_box[1 - axis] = a;
@@ -152,7 +152,7 @@ Eigen::Vector3d move_jacobian(const EdgeSample& m) {
           m.normal_box.dot(Eigen::Vector2d(-m.point_box.y(), m.point_box.x()))};
 }
 
-Move fit_move(const std::vector<EdgeSample>& moves) {
+Move fit_move(const std::vector<EdgeSample>& moves, double correlated_m) {
   // n . (t + theta * perp(p)) = offset; a weak prior holds what no side constrains at 0.
   constexpr double kPrior = 0.5, kHuber_m = 0.003;
   Move out;
@@ -176,7 +176,8 @@ Move fit_move(const std::vector<EdgeSample>& moves) {
   }
   // The samples' scatter, never taken below a millimetre (the grid's and the pixels' steps).
   const double sigma_sq = std::max(1e-6, weighted_sq / std::max(1.0, weights - 3.0));
-  out.covariance = sigma_sq * A.inverse();
+  const double lines_per_sample = std::max(1.0, correlated_m / kSampleSpacing_m);
+  out.covariance = lines_per_sample * sigma_sq * A.inverse();
   out.information = A;
   return out;
 }
