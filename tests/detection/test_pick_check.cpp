@@ -365,3 +365,26 @@ TEST_CASE("pick check: a stray step in the frame before does not set where laid-
   CAPTURE(widest_mm);
   CHECK(widest_mm < 20.0);
 }
+
+TEST_CASE("pick check: a box dragged far and read by few lines is not pulled back toward no move",
+          "[pick_check]") {
+  // Six lines across the side that faced the gap, all 40 mm out (a drag), and the side beside it
+  // where it was.
+  std::vector<pick_check::EdgeSample> samples;
+  for (int k = 0; k < 12; ++k) {
+    pick_check::EdgeSample s;
+    const bool dragged_side = k < 6;
+    const double along_m = -0.05 + 0.02 * (k % 6);
+    s.side = dragged_side ? 0 : 2;
+    s.normal_box = dragged_side ? Eigen::Vector2d::UnitX() : Eigen::Vector2d::UnitY();
+    s.point_box = dragged_side ? Eigen::Vector2d(0.2, along_m) : Eigen::Vector2d(along_m, 0.15);
+    s.offset_m = (dragged_side ? 0.040 : 0.0) + 0.0005 * ((k % 2 == 0) ? 1.0 : -1.0);
+    samples.push_back(s);
+  }
+  const pick_check::Move move = pick_check::fit_move(samples, 0.0);
+  CAPTURE(move.x.transpose(), move.significance());
+  // Robust weights taken around no move discount every sample: 30 mm before.
+  CHECK(std::abs(move.x.x() - 0.040) < 0.005);
+  CHECK(std::abs(move.x.y()) < 0.002);
+  CHECK(move.significance() > 9.0);
+}

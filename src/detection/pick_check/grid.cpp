@@ -166,7 +166,9 @@ Move fit_move(const std::vector<EdgeSample>& moves, double correlated_m) {
     for (const EdgeSample& m : moves) {
       const Eigen::Vector3d J = move_jacobian(m);
       const double residual = J.dot(out.x) - m.offset_m;
-      const double w = std::abs(residual) <= kHuber_m ? 1.0 : kHuber_m / std::abs(residual);
+      // Plain least squares first, then Huber weights around its answer: weights around no move
+      // would discount every sample of a box that moved far and leave the prior holding it still.
+      const double w = iteration == 0 || std::abs(residual) <= kHuber_m ? 1.0 : kHuber_m / std::abs(residual);
       A += w * J * J.transpose();
       b += w * J * m.offset_m;
       weighted_sq += w * residual * residual;
