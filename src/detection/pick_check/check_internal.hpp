@@ -80,12 +80,14 @@ struct EdgeSample {
   double offset_m = 0.0;
 };
 
+/// Between the lines across a side that edge_samples() reads [m].
+constexpr double kSampleSpacing_m = 0.010;
+
 /// Where the box's sides step down in the grid, along lines across each side every 10 mm,
 /// looking `reach_m` inward and outward: the outermost top point within a cell of the line
 /// before the first lower cell on it (a pixel straddling the edge is the side's last top point,
 /// wherever the grid's cells cut the pixels). A side that abuts another box's top shows no step.
 /// Samples come in a fixed order (side, then position), with nullopt where no step was found.
-constexpr double kSampleSpacing_m = 0.010;  ///< between the lines across a side
 std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2d& box, double reach_m);
 
 /// The box's move (box frame: shift along its long and short sides [m], turn [rad]) that best
