@@ -2,6 +2,7 @@
 // nothing else changed, a missed pick, a double pick, a neighbour dragged or turned.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -89,6 +90,38 @@ PickCheck check(const Picking& p, const sim::Scene& after_scene, const std::vect
                 std::uint64_t seed) {
   const sim::SimulatedFrame after = sim::render(after_scene, p.profile, seed);
   return check_pick(p.before.frame, p.last, after.frame, picked, PickCheckParams{});
+}
+
+/// Each detected box picked alone from the layer as first seen, the frame after it rendered with
+/// seed `seed_of(i)`: one check per box.
+std::vector<PickCheck> pick_each_box(const Picking& p,
+                                     const std::function<std::uint64_t(std::size_t)>& seed_of) {
+  std::vector<PickCheck> checks;
+  for (std::size_t i = 0; i < p.last.boxes.size(); ++i) {
+    const int picked = static_cast<int>(i);
+    checks.push_back(check(p, without(p.scene, {scene_box(p, picked)}), {picked}, seed_of(i)));
+  }
+  return checks;
+}
+
+/// The widest shift any check read in a box left standing [mm].
+double widest_standing_shift_mm(const std::vector<PickCheck>& checks) {
+  double widest_mm = 0.0;
+  for (const PickCheck& c : checks)
+    for (const BoxCheck& b : c.boxes)
+      if (!b.picked && b.present) widest_mm = std::max(widest_mm, b.shift_mm);
+  return widest_mm;
+}
+
+/// A sample on side 0 (normal +x, 0.2 m out) or side 2 (normal +y, 0.15 m out), `along_m` along
+/// it, its step `offset_m` outward.
+pick_check::EdgeSample side_sample(int side, double along_m, double offset_m) {
+  pick_check::EdgeSample s;
+  s.side = side;
+  s.normal_box = side == 0 ? Eigen::Vector2d::UnitX() : Eigen::Vector2d::UnitY();
+  s.point_box = side == 0 ? Eigen::Vector2d(0.2, along_m) : Eigen::Vector2d(along_m, 0.15);
+  s.offset_m = offset_m;
+  return s;
 }
 
 }  // namespace
@@ -299,15 +332,9 @@ TEST_CASE("pick check: a clean pick seen by a tilted camera reads no move in the
       std::vector<double> depths_m;
       for (const DetectedBox& b : p.last.boxes) depths_m.push_back(b.center.z());
       const double pitch_mm = 1e3 * upper_median(depths_m) / p.before.frame.intrinsics.fx;
-      double widest_mm = 0.0;
-      for (std::size_t i = 0; i < p.last.boxes.size(); ++i) {
-        const int picked = static_cast<int>(i);
-        const PickCheck c = check(p, without(p.scene, {scene_box(p, picked)}), {picked}, seed + 100 * i);
-        CHECK(c.verdict == PickVerdict::kPickOk);
-        for (const BoxCheck& b : c.boxes)
-          if (!b.picked && b.present) widest_mm = std::max(widest_mm, b.shift_mm);
-      }
-      widest_px.push_back(widest_mm / pitch_mm);
+      const std::vector<PickCheck> checks = pick_each_box(p, [&](std::size_t i) { return seed + 100 * i; });
+      for (const PickCheck& c : checks) CHECK(c.verdict == PickVerdict::kPickOk);
+      widest_px.push_back(widest_standing_shift_mm(checks) / pitch_mm);
     }
     CAPTURE(profile, widest_px);
     // 0.9-1.3 pitches with one offset for all sides.
@@ -324,12 +351,8 @@ TEST_CASE("pick check: lines across a side that read the same pixel count once i
     for (int j = -8; j <= 7; ++j) {
       const double step_m = 0.002 * std::sin(1.7 * j + side);  // the pixel's reading
       for (int line = 0; line < 2; ++line) {
-        pick_check::EdgeSample s;
-        const double along_m = pitch_m * j + pick_check::kSampleSpacing_m * line;
-        s.side = side;
-        s.normal_box = side == 0 ? Eigen::Vector2d::UnitX() : Eigen::Vector2d::UnitY();
-        s.point_box = side == 0 ? Eigen::Vector2d(0.2, along_m) : Eigen::Vector2d(along_m, 0.15);
-        s.offset_m = step_m;
+        const pick_check::EdgeSample s =
+            side_sample(side, pitch_m * j + pick_check::kSampleSpacing_m * line, step_m);
         twice.push_back(s);
         if (line == 0) once.push_back(s);
       }
@@ -355,13 +378,8 @@ TEST_CASE("pick check: a stray step in the frame before does not set where laid-
   const std::uint64_t seed = sim::frame_seed(91037, 35);
   const Picking p = start("d435", seed, o);
   REQUIRE(p.last.boxes.size() == 4);
-  double widest_mm = 0.0;
-  for (std::size_t i = 0; i < p.last.boxes.size(); ++i) {
-    const int picked = static_cast<int>(i);
-    const PickCheck c = check(p, without(p.scene, {scene_box(p, picked)}), {picked}, seed + i + 1);
-    for (const BoxCheck& b : c.boxes)
-      if (!b.picked && b.present) widest_mm = std::max(widest_mm, b.shift_mm);
-  }
+  const double widest_mm =
+      widest_standing_shift_mm(pick_each_box(p, [&](std::size_t i) { return seed + i + 1; }));
   CAPTURE(widest_mm);
   CHECK(widest_mm < 20.0);
 }
@@ -372,14 +390,10 @@ TEST_CASE("pick check: a box dragged far and read by few lines is not pulled bac
   // where it was.
   std::vector<pick_check::EdgeSample> samples;
   for (int k = 0; k < 12; ++k) {
-    pick_check::EdgeSample s;
     const bool dragged_side = k < 6;
-    const double along_m = -0.05 + 0.02 * (k % 6);
-    s.side = dragged_side ? 0 : 2;
-    s.normal_box = dragged_side ? Eigen::Vector2d::UnitX() : Eigen::Vector2d::UnitY();
-    s.point_box = dragged_side ? Eigen::Vector2d(0.2, along_m) : Eigen::Vector2d(along_m, 0.15);
-    s.offset_m = (dragged_side ? 0.040 : 0.0) + 0.0005 * ((k % 2 == 0) ? 1.0 : -1.0);
-    samples.push_back(s);
+    const double noise_m = 0.0005 * ((k % 2 == 0) ? 1.0 : -1.0);
+    samples.push_back(
+        side_sample(dragged_side ? 0 : 2, -0.05 + 0.02 * (k % 6), (dragged_side ? 0.040 : 0.0) + noise_m));
   }
   const pick_check::Move move = pick_check::fit_move(samples, 0.0);
   CAPTURE(move.x.transpose(), move.significance());
