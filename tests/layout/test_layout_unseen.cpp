@@ -1,5 +1,6 @@
 // Boxes the outline cuts where the depth ends (find_layout with LayerSurroundings): completed when
 // the view pins them down, never over a spot seen lower, flagged when their place is open.
+#include <chrono>
 #include <cmath>
 #include <functional>
 
@@ -8,6 +9,7 @@
 #include "palletd/detection/layout.hpp"
 
 #include "layout_fixtures.hpp"
+#include "layout_internal.hpp"
 
 using namespace palletd;
 using namespace palletd::layout_test;
@@ -116,6 +118,33 @@ TEST_CASE(
     const LayoutResult r = find_layout(layer, kFormats, p, nullptr, &unseen_beyond);
     CHECK(r.completed_unseen == 0);
   }
+}
+
+TEST_CASE("completing boxes where the depth ends stops at the deadline and says so") {
+  // The scene above, in its layout frame: the left box placed, the cut one to complete.
+  const std::vector<PolygonWithHoles> layer{polygon({{0, 0}, {0.72, 0}, {0.57, 0.3}, {0, 0.3}})};
+  const LayerSurroundings around = surroundings([](const Eigen::Vector2d& q) -> std::uint8_t {
+    if (on_layer(q)) return LayerSurroundings::kLevel;
+    return beyond_cut(q) ? LayerSurroundings::kUnseen : LayerSurroundings::kBelow;
+  });
+  layout_detail::LayoutFrame frame;
+  frame.theta_rad = kTheta;
+  frame.pivot = kOffset;
+  const PolygonWithHoles in_frame = frame.to_frame(layer.front());
+  const std::vector<layout_detail::FrameBox> left{{{0.0, 0.0, 0.4, 0.3}, 0, true}};
+  const auto now = std::chrono::steady_clock::now();
+  auto complete = [&](std::chrono::steady_clock::time_point end) {
+    return layout_detail::complete_unseen(left, in_frame, in_frame, frame, kFormats, around, LayoutParams{},
+                                          layout_detail::Deadline{end});
+  };
+  const layout_detail::UnseenCompletion in_time = complete(now + std::chrono::hours(1));
+  CHECK_FALSE(in_time.timed_out);
+  CHECK(in_time.added == 1);
+  CHECK(in_time.boxes.size() == 2);
+  const layout_detail::UnseenCompletion late = complete(now - std::chrono::seconds(1));
+  CHECK(late.timed_out);
+  CHECK(late.added == 0);
+  CHECK(late.boxes.size() == 1);
 }
 
 TEST_CASE("a piece of a box with the depth ending on every side: its place is open, so it is flagged") {

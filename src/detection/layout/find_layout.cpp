@@ -106,6 +106,8 @@ class BudgetSplit {
   /// Books expansions used beyond the orientations' parts (the search again after completion).
   void spend_call(std::size_t used) { call_left_ -= std::min(used, call_left_); }
   [[nodiscard]] const Deadline& component_deadline() const { return component_.deadline; }
+  /// The whole call's safety cap.
+  [[nodiscard]] Deadline call_deadline() const { return Deadline{call_end_}; }
 
  private:
   /// now + (end - now) * num / den, or now when end has passed.
@@ -252,13 +254,15 @@ struct ComponentLayout {
 
 /// Nothing the outline alone supports: perhaps boxes it cuts where the depth ends.
 bool complete_from_nothing(const PolygonWithHoles& comp_edges, const ComponentFrames& frames,
-                           const LayoutContext& ctx, LayoutResult& result, std::vector<Candidate>& cands,
-                           bool& tied) {
-  const UnseenCompletion uc = complete_unseen({}, frames.polygon(0), frames.frame(0).to_frame(comp_edges),
-                                              frames.frame(0), ctx.formats, *ctx.surroundings, ctx.params);
+                           const LayoutContext& ctx, const Deadline& deadline, LayoutResult& result,
+                           std::vector<Candidate>& cands, bool& tied) {
+  const UnseenCompletion uc =
+      complete_unseen({}, frames.polygon(0), frames.frame(0).to_frame(comp_edges), frames.frame(0),
+                      ctx.formats, *ctx.surroundings, ctx.params, deadline);
+  tally(result, 0, uc.timed_out);
   if (uc.added == 0) return false;
   cands.push_back({frames.frame(0), uc.boxes, 0.0, 0});
-  tied = uc.tied || uc.open;
+  tied = uc.tied || uc.open || uc.timed_out;
   result.completed_unseen += uc.added;
   return true;
 }
@@ -270,15 +274,17 @@ void complete_unseen_boxes(ComponentLayout& chosen, const PolygonWithHoles& comp
                            LayoutResult& result) {
   Candidate& best = chosen.best;
   const SearchBudget research = budget.research(ctx.params.search.search_expansions / kResearchShareDivisor);
-  const UnseenCompletion uc =
-      complete_unseen(best.boxes, frames.polygon(best.orientation), best.frame.to_frame(comp_edges),
-                      best.frame, ctx.formats, *ctx.surroundings, ctx.params, &research);
+  const UnseenCompletion uc = complete_unseen(
+      best.boxes, frames.polygon(best.orientation), best.frame.to_frame(comp_edges), best.frame, ctx.formats,
+      *ctx.surroundings, ctx.params, budget.call_deadline(), &research);
   result.search_expansions += uc.expansions;
   budget.spend_call(uc.expansions);
+  tally(result, 0, uc.timed_out);
   best.boxes = uc.boxes;
   chosen.completed = uc.added;
-  chosen.ambiguous = chosen.ambiguous || uc.tied || uc.open;
-  chosen.doubts.completion = chosen.doubts.completion || uc.tied || uc.open;
+  const bool in_doubt = uc.tied || uc.open || uc.timed_out;
+  chosen.ambiguous = chosen.ambiguous || in_doubt;
+  chosen.doubts.completion = chosen.doubts.completion || in_doubt;
   result.completed_unseen += uc.added;
 }
 
@@ -295,7 +301,8 @@ bool choose_layout(const PolygonWithHoles& comp, const PolygonWithHoles& comp_ed
   cands = search_orientations(comp, comp_edges, thetas, ctx, budget, result, frames, why);
   bool completion_tied = false;
   if (cands.empty() && ctx.surroundings != nullptr && !frames.empty()) {
-    chosen.all_completed = complete_from_nothing(comp_edges, frames, ctx, result, cands, completion_tied);
+    chosen.all_completed = complete_from_nothing(comp_edges, frames, ctx, budget.call_deadline(), result,
+                                                 cands, completion_tied);
   }
   if (cands.empty()) {
     why = ": " + (why.empty() ? std::string("no layout found") : why);

@@ -294,16 +294,21 @@ struct UnseenCompletion {
   /// Node expansions of a search again with candidate lines from seen edges only (its layout,
   /// when better explained, replaces the one given in `boxes`; the last `added` completed).
   std::size_t expansions = 0;
+  /// The deadline passed before every completion was tried: `boxes` holds the best one found
+  /// by then, and another may explain the layer better.
+  bool timed_out = false;
 };
 
 /// Completes one component's layout (layout frame) with boxes the outline cuts where the depth
-/// ends (LayoutParams::unseen_min_fraction, complete_unseen.cpp). With `research`, when part of
-/// the outline is unseen and the completed layout leaves the layer less than explained, the
-/// component is searched again (within that budget) with candidate lines from seen edges only.
+/// ends (LayoutParams::unseen_min_fraction, complete_unseen.cpp), until `deadline`. With
+/// `research`, when part of the outline is unseen and the completed layout leaves the layer less
+/// than explained, the component is searched again (within that budget) with candidate lines
+/// from seen edges only.
 UnseenCompletion complete_unseen(const std::vector<FrameBox>& boxes, const PolygonWithHoles& frame_polygon,
                                  const PolygonWithHoles& frame_edges, const LayoutFrame& frame,
                                  const std::vector<BoxFormat>& formats, const LayerSurroundings& around,
-                                 const LayoutParams& params, const SearchBudget* research = nullptr);
+                                 const LayoutParams& params, const Deadline& deadline,
+                                 const SearchBudget* research = nullptr);
 
 /// Two frame layouts are the same when every box has a twin (same orientation, centres closer
 /// than tol_m).

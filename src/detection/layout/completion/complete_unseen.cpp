@@ -102,8 +102,8 @@ class Completer {
  public:
   Completer(const PolygonWithHoles& frame_polygon, const PolygonWithHoles& frame_edges,
             const LayoutFrame& frame, const std::vector<BoxFormat>& formats, const LayerSurroundings& around,
-            const LayoutParams& params)
-      : poly_(frame_polygon), formats_(formats), params_(params) {
+            const LayoutParams& params, const Deadline& deadline)
+      : poly_(frame_polygon), formats_(formats), params_(params), deadline_(deadline) {
     double max_long = 0.0;
     for (const auto& f : formats) {
       max_long = std::max(max_long, f.long_m);
@@ -149,12 +149,12 @@ class Completer {
   }
 
   /// The completion of `boxes`: each first box the view allows, then the best box after box;
-  /// the one explaining most of the layer.
+  /// the one explaining most of the layer. Stops when the deadline passes (timed_out).
   UnseenCompletion complete(const std::vector<FrameBox>& boxes) const {
     UnseenCompletion out;
     out.boxes = boxes;
-    const std::vector<Found> first = candidates(boxes, &out.open);
-    if (first.empty()) return out;
+    const std::vector<Found> first = candidates(boxes, &out.open, &out.timed_out);
+    if (first.empty() || out.timed_out) return out;
     const double tie = tie_margin_m2(params_, formats_);
     double best_area = -1.0;
     std::vector<std::vector<FrameBox>> tried;
@@ -167,6 +167,7 @@ class Completer {
       tried.push_back(start);
       UnseenCompletion c = greedy(std::move(start));
       c.added += 1;
+      out.timed_out = out.timed_out || c.timed_out;
       const double a = covered_area(c.boxes, poly_);
       if (a > best_area + tie) {
         out = std::move(c);
@@ -174,6 +175,7 @@ class Completer {
       } else if (a > best_area - tie && !same_layout(c.boxes, out.boxes, 0.5 * min_short_)) {
         out.tied = true;  // another completion explains the view as well
       }
+      if (out.timed_out) break;
     }
     return out;
   }
@@ -187,8 +189,9 @@ class Completer {
   static constexpr std::size_t kFirstMoves = 8;
 
   /// Boxes that complete `boxes` by one, most newly covered layer first. *open: some box could
-  /// lie over uncovered layer and the unseen beyond it but too little of it is seen.
-  std::vector<Found> candidates(const std::vector<FrameBox>& boxes, bool* open) const {
+  /// lie over uncovered layer and the unseen beyond it but too little of it is seen. *timed_out:
+  /// the deadline passed before every place was tried (those found by then are returned).
+  std::vector<Found> candidates(const std::vector<FrameBox>& boxes, bool* open, bool* timed_out) const {
     std::vector<Anchor> bx = ax_, by = ay_;
     for (const auto& b : boxes) {  // beside a box (either way along its side)
       for (bool plus : {true, false}) {
@@ -219,6 +222,10 @@ class Completer {
         const double h = long_x ? formats_[f].short_m : formats_[f].long_m;
         const double box_area = w * h;
         for (const Anchor& x : bx) {
+          if (deadline_.passed()) {
+            *timed_out = true;
+            break;
+          }
           for (const Anchor& y : by) {
             const Rect r{x.box_on_plus ? x.pos : x.pos - w, y.box_on_plus ? y.pos : y.pos - h,
                          x.box_on_plus ? x.pos + w : x.pos, y.box_on_plus ? y.pos + h : y.pos};
@@ -255,8 +262,8 @@ class Completer {
   UnseenCompletion greedy(std::vector<FrameBox> boxes) const {
     UnseenCompletion out;
     const double tie = tie_margin_m2(params_, formats_);
-    for (int round = 0; round < 16; ++round) {
-      const std::vector<Found> found = candidates(boxes, &out.open);
+    for (int round = 0; round < 16 && !out.timed_out; ++round) {
+      const std::vector<Found> found = candidates(boxes, &out.open, &out.timed_out);
       if (found.empty()) break;
       const Found& best = found.front();
       // Another placement of the same spot that explains the layer as well: the view cannot tell.
@@ -278,6 +285,7 @@ class Completer {
   const PolygonWithHoles& poly_;
   const std::vector<BoxFormat>& formats_;
   const LayoutParams& params_;
+  Deadline deadline_;
   SurroundTable table_;
   double min_short_ = 1e9, min_box_area_ = 1e9;
   std::vector<Anchor> ax_, ay_;
@@ -286,8 +294,8 @@ class Completer {
 UnseenCompletion complete_boxes(const std::vector<FrameBox>& boxes, const PolygonWithHoles& frame_polygon,
                                 const PolygonWithHoles& frame_edges, const LayoutFrame& frame,
                                 const std::vector<BoxFormat>& formats, const LayerSurroundings& around,
-                                const LayoutParams& params) {
-  const Completer completer(frame_polygon, frame_edges, frame, formats, around, params);
+                                const LayoutParams& params, const Deadline& deadline) {
+  const Completer completer(frame_polygon, frame_edges, frame, formats, around, params, deadline);
   if (!completer.usable()) {
     UnseenCompletion out;
     out.boxes = boxes;
@@ -301,9 +309,13 @@ UnseenCompletion complete_boxes(const std::vector<FrameBox>& boxes, const Polygo
 UnseenCompletion complete_unseen(const std::vector<FrameBox>& boxes, const PolygonWithHoles& frame_polygon,
                                  const PolygonWithHoles& frame_edges, const LayoutFrame& frame,
                                  const std::vector<BoxFormat>& formats, const LayerSurroundings& around,
-                                 const LayoutParams& params, const SearchBudget* research) {
-  UnseenCompletion first = complete_boxes(boxes, frame_polygon, frame_edges, frame, formats, around, params);
-  if (research == nullptr || around.empty() || !(params.completion.unseen_min_fraction > 0.0)) return first;
+                                 const LayoutParams& params, const Deadline& deadline,
+                                 const SearchBudget* research) {
+  UnseenCompletion first =
+      complete_boxes(boxes, frame_polygon, frame_edges, frame, formats, around, params, deadline);
+  if (first.timed_out || research == nullptr || around.empty() ||
+      !(params.completion.unseen_min_fraction > 0.0))
+    return first;
   // An outline edge is seen when something (the surface lower, another box) shows beyond it
   // within 50 mm (LayerParams::unobserved_gap_m's default) along most of it.
   const SeedEdgeFilter seen_edge = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b,
@@ -342,8 +354,12 @@ UnseenCompletion complete_unseen(const std::vector<FrameBox>& boxes, const Polyg
   for (const auto& alt : again.alternatives) layouts.push_back(alt);
   UnseenCompletion best = first;
   double best_covered = covered + 0.02 * comp_area;
+  bool timed_out = false;
   for (const auto& layout : layouts) {
-    UnseenCompletion c = complete_boxes(layout, frame_polygon, frame_edges, frame, formats, around, params);
+    if (timed_out) break;
+    UnseenCompletion c =
+        complete_boxes(layout, frame_polygon, frame_edges, frame, formats, around, params, deadline);
+    timed_out = c.timed_out;
     const double a = covered_area(c.boxes, frame_polygon);
     if (a > best_covered) {
       best = std::move(c);
@@ -351,6 +367,7 @@ UnseenCompletion complete_unseen(const std::vector<FrameBox>& boxes, const Polyg
     }
   }
   best.expansions = again.expansions;
+  best.timed_out = timed_out;
   return best;
 }
 
