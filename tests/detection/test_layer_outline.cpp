@@ -363,3 +363,54 @@ TEST_CASE("simplify: a blunted corner of an L comes back, a chamfer of the same 
     }
   }
 }
+
+TEST_CASE("simplify: a ragged stretch of short slanted lines does not turn the straight edges") {
+  // A 900 x 600 mm layer at 5 mm pixels whose bottom side runs ragged for 555 mm: three teeth
+  // of 50 mm rising at 30 degrees and 144 mm falling at 10 degrees (a narrow gap between two
+  // pieces that a stereo camera smooths over cuts an outline so). Weighted by length, those
+  // lines turn the ring's grid by about 0.8 degrees; weighted by how well each line's direction
+  // is measured, the straight edges decide.
+  const double pitch = 0.005;
+  std::vector<Eigen::Vector2d> outline{{0.0, 0.0}, {0.15, 0.0}};
+  for (int tooth = 0; tooth < 3; ++tooth) {
+    const Eigen::Vector2d p = outline.back();
+    const Eigen::Vector2d up = p + 0.05 * Eigen::Vector2d(std::cos(M_PI / 6), std::sin(M_PI / 6));
+    outline.push_back(up);
+    outline.push_back(up + 0.144 * Eigen::Vector2d(std::cos(M_PI / 18), -std::sin(M_PI / 18)));
+  }
+  outline.back().y() = 0.0;
+  for (const Eigen::Vector2d& p :
+       {Eigen::Vector2d(0.9, 0.0), Eigen::Vector2d(0.9, 0.6), Eigen::Vector2d(0.0, 0.6)})
+    outline.push_back(p);
+  auto walk = [](const std::vector<Eigen::Vector2d>& corners, double step) {
+    std::vector<Eigen::Vector2d> pts;
+    for (std::size_t k = 0; k < corners.size(); ++k) {
+      const Eigen::Vector2d a = corners[k], b = corners[(k + 1) % corners.size()];
+      const int n = std::max(1, static_cast<int>(std::round((b - a).norm() / step)));
+      for (int i = 0; i < n; ++i) pts.push_back(a + (b - a) * (static_cast<double>(i) / n));
+    }
+    return pts;
+  };
+  for (const double yaw : {0.2, 0.7}) {
+    const Eigen::Rotation2Dd R(yaw);
+    std::vector<Eigen::Vector2d> ring, samples;
+    for (const auto& p : walk(outline, pitch)) ring.push_back(R * p);
+    for (const auto& p : walk(outline, 0.5 * pitch)) samples.push_back(R * p);
+    const Ring2d poly = layer::simplify_ring(ring, samples, pitch, ContourParams{});
+    INFO(describe(poly));
+    // The edge along the top side (its middle nearest the side's middle) runs along it.
+    const Eigen::Vector2d top_mid = R * Eigen::Vector2d(0.45, 0.6);
+    std::size_t best = 0;
+    double best_d = 1e9;
+    for (std::size_t k = 0; k < poly.size(); ++k) {
+      const double d = (0.5 * (poly[k] + poly[(k + 1) % poly.size()]) - top_mid).norm();
+      if (d < best_d) best_d = d, best = k;
+    }
+    const Eigen::Vector2d dir = poly[(best + 1) % poly.size()] - poly[best];
+    const double err_deg =
+        std::abs(std::remainder(std::atan2(dir.y(), dir.x()) - yaw, M_PI / 2)) * 180.0 / M_PI;
+    INFO("yaw " << yaw << ": the top edge is off by " << err_deg << " deg");
+    CHECK(best_d < 0.05);
+    CHECK(err_deg < 0.2);
+  }
+}

@@ -35,6 +35,9 @@ constexpr double kMaxEndShare = 0.25;
 /// [pitches] (and at least kCornerFar_tols tolerances).
 constexpr double kCornerFar_pitches = 4.0;
 constexpr double kCornerFar_tols = 5.0;
+/// Least spread of an edge's samples about its line [pitches]: where a border pixel lies within
+/// its pixel, uniform over one pitch (1 / sqrt(12)).
+constexpr double kQuantisation_pitches = 0.29;
 
 double angle_between_dirs(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return std::acos(std::clamp(std::abs(a.dot(b)), 0.0, 1.0));  // 0..pi/2, sign ignored
@@ -197,6 +200,20 @@ void recover_corners(std::vector<FittedLine>& lines, std::vector<Eigen::Vector2d
 
 // ---- simplify_ring's phases ---------------------------------------------------------------------
 
+/// Inverse variance of a fitted line's direction [rad^-2]: the spread of its samples along it,
+/// sum (t - mean t)^2, over the square of their spread across it (their rms about the line, at
+/// least `floor_m`).
+double direction_weight(const FittedLine& line, double floor_m) {
+  if (line.samples.empty()) return 0.0;
+  double mean_t = 0.0;
+  for (const auto& p : line.samples) mean_t += p.dot(line.dir);
+  mean_t /= static_cast<double>(line.samples.size());
+  double spread_t = 0.0;
+  for (const auto& p : line.samples) spread_t += (p.dot(line.dir) - mean_t) * (p.dot(line.dir) - mean_t);
+  const double sigma = std::max(rms(line), floor_m);
+  return spread_t / (sigma * sigma);
+}
+
 /// The scales one ring is simplified at.
 struct RingScales {
   double pitch_m = 0.0;    ///< spacing of the border pixels [m]
@@ -204,12 +221,12 @@ struct RingScales {
   double merge_rad = 0.0;  ///< lines closer than this in direction may be one [rad]
 };
 
-/// The ring's dominant grid direction (length-weighted mean of 4 x the lines' angles, so modulo
-/// 90 degrees), and the snapping of near-grid lines onto its axes.
+/// The ring's dominant grid direction (mean of 4 x the lines' angles, so modulo 90 degrees), and
+/// the snapping of near-grid lines onto its axes.
 class RingGrid {
  public:
-  RingGrid(const std::vector<FittedLine>& lines, double snap_rad)
-      : angle_rad_(dominant_angle_rad(lines)), snap_rad_(snap_rad) {}
+  RingGrid(const std::vector<FittedLine>& lines, double snap_rad, double pitch_m)
+      : angle_rad_(dominant_angle_rad(lines, pitch_m)), snap_rad_(snap_rad) {}
 
   [[nodiscard]] double angle_rad() const { return angle_rad_; }
 
@@ -235,13 +252,23 @@ class RingGrid {
   }
 
  private:
-  static double dominant_angle_rad(const std::vector<FittedLine>& lines) {
+  /// Each fitted line weighs as the inverse variance of its direction (direction_weight): a long
+  /// straight edge decides, and a ragged stretch that Douglas-Peucker cut into many short lines
+  /// (a narrow gap between two pieces that a stereo camera smooths over) hardly counts, where
+  /// weights by length let its pieces turn the grid by degrees. Without any fitted line, the
+  /// lines count by their length.
+  static double dominant_angle_rad(const std::vector<FittedLine>& lines, double pitch_m) {
+    const double floor_m = std::max(kQuantisation_pitches * pitch_m, kMinTolerance_m);
     double c = 0.0, s4 = 0.0;
-    for (const auto& line : lines) {
+    auto add = [&](const FittedLine& line, double weight) {
       const double a = std::atan2(line.dir.y(), line.dir.x());
-      c += line.length * std::cos(4.0 * a);
-      s4 += line.length * std::sin(4.0 * a);
-    }
+      c += weight * std::cos(4.0 * a);
+      s4 += weight * std::sin(4.0 * a);
+    };
+    for (const auto& line : lines)
+      if (line.fitted) add(line, direction_weight(line, floor_m));
+    if (c == 0.0 && s4 == 0.0)
+      for (const auto& line : lines) add(line, line.length);
     return std::atan2(s4, c) / 4.0;
   }
 
@@ -425,7 +452,7 @@ Ring2d simplify_ring(const std::vector<Eigen::Vector2d>& ring, const std::vector
 
   // Near-grid lines snapped onto the grid, splits that are no corner merged, blunted corners
   // recovered.
-  const RingGrid grid(lines, params.snap_angle_deg * M_PI / 180.0);
+  const RingGrid grid(lines, params.snap_angle_deg * M_PI / 180.0, pitch_m);
   for (auto& line : lines) grid.snap(line, 0.0);
   snap_risers(lines, grid, scales);
   merge_collinear(lines, v, grid, scales);
