@@ -370,18 +370,26 @@ TEST_CASE("pick check: lines across a side that read the same pixel count once i
 
 TEST_CASE("pick check: a stray step in the frame before does not set where laid-open sides belong",
           "[pick_check]") {
-  // A block of four 600x400 seen by a stereo camera whose frame before shows one step in all of
-  // the layer's outer sides (its edges smoothed and shadowed): each side a pick lays open is
-  // measured against the detected side, not against that one sample.
+  // Blocks of 600x400 seen by a stereo camera whose frame before shows no step, or one, in the
+  // layer's outer sides: it hangs over the layer, every outer side faces away from it, and the
+  // floor below is hidden beyond the reach the check looks at. Each side a pick lays open is
+  // measured against the detected side, less how far the detection moved the outline in from
+  // the depth's fattened edges (the stereo camera's matching window shows the laid-open side's
+  // step that far out), not against that one sample.
   sim::ScenarioOptions o;
   o.pattern = sim::PatternFamily::kBlock;
-  const std::uint64_t seed = sim::frame_seed(91037, 35);
-  const Picking p = start("d435", seed, o);
-  REQUIRE(p.last.boxes.size() == 4);
-  const double widest_mm =
-      widest_standing_shift_mm(pick_each_box(p, [&](std::size_t i) { return seed + i + 1; }));
-  CAPTURE(widest_mm);
-  CHECK(widest_mm < 20.0);
+  for (const auto& [set, frame] : {std::pair<std::uint64_t, std::uint64_t>{91037, 35}, {91033, 83}}) {
+    const std::uint64_t seed = sim::frame_seed(set, frame);
+    const Picking p = start("d435", seed, o);
+    REQUIRE(p.last.layer.diagnostics.edges_moved_in_m > 0.005);
+    const std::vector<PickCheck> checks = pick_each_box(p, [&](std::size_t i) { return seed + i + 1; });
+    const double widest_mm = widest_standing_shift_mm(checks);
+    CAPTURE(set, frame, widest_mm);
+    CHECK(widest_mm < 15.0);  // 16 and 20 mm measured against the detected sides as they are
+    // Read against the trim alone, three of the eight checks called a neighbour moved by 12-14
+    // mm: the trim is the fattening's median over the outline, and a side's own varies.
+    for (const PickCheck& c : checks) CHECK(c.verdict == PickVerdict::kPickOk);
+  }
 }
 
 TEST_CASE("pick check: a box dragged far and read by few lines is not pulled back toward no move",

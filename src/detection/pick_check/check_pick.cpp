@@ -70,6 +70,10 @@ std::string frames_problem(const Frame& before, const Frame& after) {
 struct EdgeBias {
   Eigen::Vector3d camera_layer = Eigen::Vector3d::UnitZ();  ///< the camera in the layer frame [m]
   double facing_m = 0.0, away_m = 0.0;
+  /// How far one side's offset may lie from those (one sigma) beyond what the samples show:
+  /// half the detection's trim where that stands for them (a stereo camera's fattening varies
+  /// between one and two pixels from side to side).
+  double spread_m = 0.0;
   [[nodiscard]] bool facing(const Box2d& box, const EdgeSample& s) const {
     const Eigen::Rotation2Dd R(box.yaw_rad);
     const Eigen::Vector2d at = box.center + R * s.point_box;
@@ -120,8 +124,9 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
     sides_seen = static_cast<int>(
         std::count_if(std::begin(per_side), std::end(per_side), [](int n) { return n >= 3; }));
     move = pick_check::fit_move(moves, kCorrelatedCells * after.cell_m());
-    // A side compared with the detected side shares that side's error, an offset (kReference_m)
-    // and a turn (kReference_rad) common to its samples: both add to the move's uncertainty.
+    // A side compared with the detected side shares that side's error, an offset (kReference_m,
+    // with the offset's spread from side to side) and a turn (kReference_rad) common to its
+    // samples: both add to the move's uncertainty.
     Eigen::Vector3d offset_lever[4], turn_lever[4];
     for (int side = 0; side < 4; ++side) offset_lever[side] = turn_lever[side] = Eigen::Vector3d::Zero();
     for (std::size_t k = 0; k < now.size(); ++k) {
@@ -134,28 +139,37 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
     const Eigen::Matrix3d inverse = move.information.inverse();
     for (int side = 0; side < 4; ++side) {
       const Eigen::Vector3d a = inverse * offset_lever[side], b = inverse * turn_lever[side];
-      move.covariance += kReference_m * kReference_m * a * a.transpose() +
-                         kReference_rad * kReference_rad * b * b.transpose();
+      const double ref_m = std::hypot(kReference_m, bias.spread_m);
+      move.covariance +=
+          ref_m * ref_m * a * a.transpose() + kReference_rad * kReference_rad * b * b.transpose();
     }
   }
   return move;
 }
 
 /// The median offsets of the sides' steps from the detected sides in the frame the result came
-/// from, apart for sides facing the camera and away (each the other's, or 0, where fewer than
-/// kMinBiasSamples samples show them).
+/// from, apart for sides facing the camera and away (each the other's where fewer than
+/// kMinBiasSamples samples show them). Where neither does, `trimmed_m`: how far the detection
+/// moved the layer's outline in, where the depth's edges lay outside the intensity image's (a
+/// stereo camera's matching window fattens the tops over what lies below them, so a side's step
+/// lies that far out; 0 where the outline was not moved).
 /// `was`: each box's samples in that frame.
 EdgeBias edge_bias(const std::vector<SideSamples>& was, const std::vector<DetectedBox>& boxes,
-                   const Eigen::Vector3d& camera_layer) {
+                   const Eigen::Vector3d& camera_layer, double trimmed_m) {
   EdgeBias bias;
   bias.camera_layer = camera_layer;
   std::vector<double> facing, away;
   for (std::size_t i = 0; i < boxes.size(); ++i)
     for (const auto& s : was[i])
       if (s) (bias.facing(boxes[i].in_layer, *s) ? facing : away).push_back(s->offset_m);
-  // Too few samples say nothing about the camera's offsets: the detected side stands as it is.
+  // Too few samples say nothing about the camera's offsets.
   if (facing.size() < kMinBiasSamples) facing.clear();
   if (away.size() < kMinBiasSamples) away.clear();
+  if (facing.empty() && away.empty()) {
+    bias.facing_m = bias.away_m = trimmed_m;
+    bias.spread_m = 0.5 * trimmed_m;
+    return bias;
+  }
   if (facing.empty()) facing = away;
   if (away.empty()) away = facing;
   bias.facing_m = upper_median(std::move(facing));
@@ -248,7 +262,8 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   std::vector<SideSamples> samples_before;  // each box's sides in the frame before, once
   samples_before.reserve(last.boxes.size());
   for (const DetectedBox& b : last.boxes) samples_before.push_back(pick_check::edge_samples(was, b.in_layer, kReach_m));
-  const EdgeBias bias = edge_bias(samples_before, last.boxes, T_layer_camera.translation());
+  const EdgeBias bias = edge_bias(samples_before, last.boxes, T_layer_camera.translation(),
+                                  last.layer.diagnostics.edges_moved_in_m);
 
   for (std::size_t i = 0; i < last.boxes.size(); ++i) {
     const DetectedBox& box = last.boxes[i];
