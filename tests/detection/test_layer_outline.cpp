@@ -319,15 +319,6 @@ TEST_CASE("simplify: a blunted corner of an L comes back, a chamfer of the same 
   const std::size_t blunted = 2;  // the corner (0.6, 0.23)
   const Eigen::Vector2d before = l_shape[blunted] + Eigen::Vector2d(0.0, -cut);
   const Eigen::Vector2d after = l_shape[blunted] + Eigen::Vector2d(-cut, 0.0);
-  auto walk = [](const std::vector<Eigen::Vector2d>& outline, double step) {
-    std::vector<Eigen::Vector2d> pts;
-    for (std::size_t k = 0; k < outline.size(); ++k) {
-      const Eigen::Vector2d a = outline[k], b = outline[(k + 1) % outline.size()];
-      const int n = std::max(1, static_cast<int>(std::round((b - a).norm() / step)));
-      for (int i = 0; i < n; ++i) pts.push_back(a + (b - a) * (static_cast<double>(i) / n));
-    }
-    return pts;
-  };
   std::vector<Eigen::Vector2d> cut_outline;
   for (std::size_t k = 0; k < l_shape.size(); ++k) {
     if (k != blunted) {
@@ -382,15 +373,6 @@ TEST_CASE("simplify: a ragged stretch of short slanted lines does not turn the s
   for (const Eigen::Vector2d& p :
        {Eigen::Vector2d(0.9, 0.0), Eigen::Vector2d(0.9, 0.6), Eigen::Vector2d(0.0, 0.6)})
     outline.push_back(p);
-  auto walk = [](const std::vector<Eigen::Vector2d>& corners, double step) {
-    std::vector<Eigen::Vector2d> pts;
-    for (std::size_t k = 0; k < corners.size(); ++k) {
-      const Eigen::Vector2d a = corners[k], b = corners[(k + 1) % corners.size()];
-      const int n = std::max(1, static_cast<int>(std::round((b - a).norm() / step)));
-      for (int i = 0; i < n; ++i) pts.push_back(a + (b - a) * (static_cast<double>(i) / n));
-    }
-    return pts;
-  };
   for (const double yaw : {0.2, 0.7}) {
     const Eigen::Rotation2Dd R(yaw);
     std::vector<Eigen::Vector2d> ring, samples;
