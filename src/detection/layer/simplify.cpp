@@ -209,7 +209,10 @@ double direction_weight(const FittedLine& line, double floor_m) {
   for (const auto& p : line.samples) mean_t += p.dot(line.dir);
   mean_t /= static_cast<double>(line.samples.size());
   double spread_t = 0.0;
-  for (const auto& p : line.samples) spread_t += (p.dot(line.dir) - mean_t) * (p.dot(line.dir) - mean_t);
+  for (const auto& p : line.samples) {
+    const double t = p.dot(line.dir) - mean_t;
+    spread_t += t * t;
+  }
   const double sigma = std::max(rms(line), floor_m);
   return spread_t / (sigma * sigma);
 }

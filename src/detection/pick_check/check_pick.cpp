@@ -106,6 +106,7 @@ using SideSamples = std::vector<std::optional<EdgeSample>>;
 pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d& box, const EdgeBias& bias,
                           int& sides_seen) {
   const Eigen::Rotation2Dd R(box.yaw_rad);
+  const double ref_m = std::hypot(kReference_m, bias.spread_m);  // a laid-open side's reference offset
   pick_check::Move move;
   for (int round = 0; round < 3; ++round) {
     Box2d estimate = box;
@@ -139,7 +140,6 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
     const Eigen::Matrix3d inverse = move.information.inverse();
     for (int side = 0; side < 4; ++side) {
       const Eigen::Vector3d a = inverse * offset_lever[side], b = inverse * turn_lever[side];
-      const double ref_m = std::hypot(kReference_m, bias.spread_m);
       move.covariance +=
           ref_m * ref_m * a * a.transpose() + kReference_rad * kReference_rad * b * b.transpose();
     }
