@@ -383,14 +383,17 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   // pieces of the layer without boxes or cut off by the image's edge, on a level as low as a
   // pallet's deck is the empty pallet (stereo cameras and coarse pitches merge its boards and gaps
   // into strips or one slab that boxes tile). Where the pallet's height is known, it alone decides;
-  // boxes whose seams show where they meet are cartons.
+  // boxes whose seams show where they meet are cartons. A search the clock ended has not shown
+  // that no box fits: a slow or loaded machine must not make a layer of cartons an empty pallet
+  // (the expansion count ends a search the same way on every machine, and sets are measured so).
   const bool ok = layout.status == DetectionStatus::kOk;
   std::optional<LevelVerdict> slots = ok ? boxes_over_slots(layout, layer) : std::nullopt;
   std::optional<LevelVerdict> unlaid = ok ? pieces_without_boxes(layout, layer, formats) : std::nullopt;
   std::optional<LevelVerdict> holes = ok ? boxes_over_holes(cloud, layout, layer) : std::nullopt;
   std::optional<LevelVerdict> cut = ok ? pieces_cut_by_image(layer, formats) : std::nullopt;
   const bool carton_seams = ok && layout.interior_seams.seen_share() >= kCartonSeamShare;
-  if (!above_known_deck && !carton_seams && (!ok || layout.ambiguous || slots || unlaid || holes || cut))
+  if (!above_known_deck && !carton_seams && !layout.clock_ran_out &&
+      (!ok || layout.ambiguous || slots || unlaid || holes || cut))
     if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity, T_base_camera))
       return deck;
   if (slots) return slots;

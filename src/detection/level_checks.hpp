@@ -120,7 +120,9 @@ std::optional<LevelVerdict> boxes_over_holes(const OrganizedCloud& cloud, const 
 std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const LayerResult& layer);
 
 /// After the layout: deck_above_floor when the layout failed or is flagged, or a box covers a slot
-/// or a hole, or a piece of the layer holds no box or the image's edge cuts one off; then those
+/// or a hole, or a piece of the layer holds no box or the image's edge cuts one off, and the
+/// search was not ended by the clock (LayoutResult::clock_ran_out: then nothing showed that no box
+/// fits, and a faster machine might have); then those
 /// flags; else slip_sheet, pieces_cut_by_image, formats_undecided, mix_by_outline,
 /// seams_across_boxes, undersized_boxes, uncertain_positions, turned_unseen_boxes,
 /// overlapping_boxes (`refine`), search_unfinished. `above_known_deck`: the pallet's height and

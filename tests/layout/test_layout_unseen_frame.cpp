@@ -232,6 +232,7 @@ TEST_CASE(
       read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/flags/brick_300x200_close_over_lower_layer_xtion");
   REQUIRE(frame);
   DetectionParams params = in_simulated_cell(0.804);
+  params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
   const std::vector<BoxFormat> formats = {{0.3, 0.2, "300x200"}};
   for (const bool height_known : {false, true}) {
     if (height_known) params.pallet.top_z_m = 0.144;
@@ -240,6 +241,24 @@ TEST_CASE(
     CHECK(d.status != DetectionStatus::kEmpty);
     CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
   }
+}
+
+// The same frame on a machine too slow for the search's time budget (an ASan build beside other
+// tests took more than 200 ms): the search ends before any layout. That is no sign that no box
+// fits, so the level 180 mm above the lowest one seen stays what it is, not an empty pallet's
+// deck; the result says the budget ran out. A budget already spent when the search starts makes
+// this so on any machine.
+TEST_CASE("a layer of cartons whose search the clock ends is never an empty pallet") {
+  const Expected<Frame> frame =
+      read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/flags/brick_300x200_close_over_lower_layer_xtion");
+  REQUIRE(frame);
+  DetectionParams params = in_simulated_cell(0.804);
+  params.layout.search.time_budget_ms = 1e-3;
+  const Detection d = detect(*frame, {{0.3, 0.2, "300x200"}}, params);
+  CAPTURE(to_string(d.status), d.message);
+  CHECK(d.status == DetectionStatus::kNoLayout);
+  CHECK(d.budget_exhausted);
+  CHECK_THAT(d.message, Catch::Contains("budget") && Catch::Contains("ran out"));
 }
 
 // Frame 23 of set O1, made in the session of 2026-12-05 beyond the targets' envelope (`palletctl

@@ -123,10 +123,11 @@ class BudgetSplit {
   SearchBudget orientation_;
 };
 
-/// Adds a search's counters to the result.
-void tally(LayoutResult& result, std::size_t visited, bool exhausted) {
+/// Adds a search's counters to the result; `clock`: the wall-clock cap ended it.
+void tally(LayoutResult& result, std::size_t visited, bool exhausted, bool clock) {
   result.hypotheses_visited += visited;
   result.budget_exhausted = result.budget_exhausted || exhausted;
+  result.clock_ran_out = result.clock_ran_out || (exhausted && clock);
 }
 
 /// Whether a component is too small for any box (its outline grown by the best-first search's
@@ -148,7 +149,7 @@ bool solve_paper_component(const PolygonWithHoles& comp, const PolygonWithHoles&
                            const LayoutContext& ctx, const Deadline& deadline, LayoutResult& result,
                            double& covered_m2, std::string& reason) {
   const PaperSolution ps = search_paper(comp, comp_edges, ctx.formats, ctx.params, deadline);
-  tally(result, ps.visited, ps.cap_hit);
+  tally(result, ps.visited, ps.cap_hit, ps.clock_ran_out);
   if (!ps.found) {
     reason = orthogonal_corners(comp_edges, ctx.params.search.corner_angle_tol_deg, ctx.min_edge_m).empty()
                  ? " has no orthogonal corner (round or damaged outline)"
@@ -188,7 +189,7 @@ bool research_with_seams(const PolygonWithHoles& fp, const PolygonWithHoles& fe,
   } else {
     budget.spend(ss.expansions);
   }
-  tally(result, ss.visited, ss.budget_exhausted);
+  tally(result, ss.visited, ss.budget_exhausted, ss.clock_ran_out);
   if (ss.found) cands.push_back({frame, ss.boxes, ss.outline_score, slot});
   for (const auto& alt : ss.alternatives) {
     double covered_m2 = 0.0;  // its outline score
@@ -220,7 +221,7 @@ std::vector<Candidate> search_orientations(const PolygonWithHoles& comp, const P
     result.search_expansions += cs.expansions;
     budget.spend(cs.expansions);
     if (!cs.found) {
-      tally(result, cs.visited, cs.budget_exhausted);
+      tally(result, cs.visited, cs.budget_exhausted, cs.clock_ran_out);
       why = cs.reason;
       continue;
     }
@@ -237,7 +238,7 @@ std::vector<Candidate> search_orientations(const PolygonWithHoles& comp, const P
         research_with_seams(fp, fe, frame, slot, cs.score, ctx, budget, result, cands)) {
       exhausted = false;
     }
-    tally(result, cs.visited, exhausted);
+    tally(result, cs.visited, exhausted, cs.clock_ran_out);
   }
   return cands;
 }
@@ -259,7 +260,7 @@ bool complete_from_nothing(const PolygonWithHoles& comp_edges, const ComponentFr
   const UnseenCompletion uc =
       complete_unseen({}, frames.polygon(0), frames.frame(0).to_frame(comp_edges), frames.frame(0),
                       ctx.formats, *ctx.surroundings, ctx.params, deadline);
-  tally(result, 0, uc.timed_out);
+  tally(result, 0, uc.timed_out, uc.timed_out);
   if (uc.added == 0) return false;
   cands.push_back({frames.frame(0), uc.boxes, 0.0, 0});
   tied = uc.tied || uc.open || uc.timed_out;
@@ -279,7 +280,7 @@ void complete_unseen_boxes(ComponentLayout& chosen, const PolygonWithHoles& comp
       *ctx.surroundings, ctx.params, budget.call_deadline(), &research);
   result.search_expansions += uc.expansions;
   budget.spend_call(uc.expansions);
-  tally(result, 0, uc.timed_out);
+  tally(result, 0, uc.timed_out, uc.timed_out);
   best.boxes = uc.boxes;
   chosen.completed = uc.added;
   const bool in_doubt = uc.tied || uc.open || uc.timed_out;
@@ -398,12 +399,18 @@ bool solve_best_first_component(const PolygonWithHoles& comp, const PolygonWithH
   return publish_layout(chosen, comp_area_m2, ci, frames, ctx, result, covered_m2, why);
 }
 
-/// Status and reason from the boxes found and the components' reasons.
+/// Status and reason from the boxes found and the components' reasons. No layout from a search its
+/// budget ended says so first: the boxes it had were not shown not to fit.
 void finish_status(const std::vector<std::string>& reasons, LayoutResult& result) {
   std::string r;
   for (const auto& s : reasons) r += (r.empty() ? "" : "; ") + s;
   result.status = result.boxes.empty() ? DetectionStatus::kNoLayout : DetectionStatus::kOk;
   result.reason = result.boxes.empty() && r.empty() ? "no layout found" : r;
+  if (result.boxes.empty() && result.budget_exhausted)
+    result.reason =
+        "the search's budget (detection.layout.time_budget_ms or search_expansions) ran out before it "
+        "found a layout: " +
+        result.reason;
 }
 
 }  // namespace

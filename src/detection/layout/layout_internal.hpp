@@ -245,6 +245,7 @@ struct ComponentSolution {
   std::vector<std::vector<FrameBox>> alternatives;
   std::vector<double> alternative_scores;
   bool budget_exhausted = false;
+  bool clock_ran_out = false;  ///< the wall-clock cap, not the expansion count, ended it
   std::size_t visited = 0;
   std::size_t expansions = 0;  ///< node expansions used (queue pops)
   std::string reason;       ///< when !found
@@ -276,6 +277,7 @@ struct PaperSolution {
   std::vector<Box2d> boxes;
   double score = 0.0;
   bool cap_hit = false;
+  bool clock_ran_out = false;  ///< the deadline, not the hypothesis cap, ended it
   std::size_t visited = 0;
 };
 PaperSolution search_paper(const PolygonWithHoles& polygon, const PolygonWithHoles& edges,

@@ -360,6 +360,7 @@ class BestFirstSearch {
   std::vector<FrameBox> best_boxes_;
   std::size_t pops_ = 0;
   bool exhausted_ = false;
+  bool clock_ran_out_ = false;  ///< the deadline ended the search (exhausted_ too)
 };
 
 }  // namespace palletd::layout_detail::best_first

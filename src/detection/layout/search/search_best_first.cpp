@@ -75,8 +75,9 @@ void BestFirstSearch::start_search() {
 void BestFirstSearch::search_best_first(ComponentSolution* sol) {
   while (!queue_.empty()) {
     // The expansion count is the budget; the clock only caps a loaded or slow machine.
-    if (pops_ >= budget_.expansions ||
-        ((pops_ & kClockCheckMask) == kClockCheckMask && budget_.deadline.passed())) {
+    clock_ran_out_ = pops_ < budget_.expansions && (pops_ & kClockCheckMask) == kClockCheckMask &&
+                     budget_.deadline.passed();
+    if (pops_ >= budget_.expansions || clock_ran_out_) {
       exhausted_ = true;
       break;
     }
@@ -260,6 +261,7 @@ void BestFirstSearch::fill_solution(ComponentSolution* sol) {
   sol->visited = nodes_.size();
   sol->expansions = pops_;
   sol->budget_exhausted = exhausted_;
+  sol->clock_ran_out = clock_ran_out_;
   const int chosen = best_ >= 0 ? best_ : best_seen_;
   sol->boxes = best_ >= 0 ? best_boxes_ : boxes_of(chosen);
   sol->score = score_of(chosen);

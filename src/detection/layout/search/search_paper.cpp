@@ -234,6 +234,7 @@ PaperSolution search_paper(const PolygonWithHoles& polygon, const PolygonWithHol
   if (search.empty()) return sol;
   // Lines 21-39: breadth-first expansion.
   sol.cap_hit = search.expand_all(deadline);
+  sol.clock_ran_out = sol.cap_hit && deadline.passed();
   search.fill_solution(&sol);
   return sol;
 }

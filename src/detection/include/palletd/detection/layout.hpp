@@ -309,6 +309,8 @@ struct LayoutResult {
   bool ambiguous = false;            ///< another layout scores (nearly) the same
   LayoutDoubts doubts;               ///< why `ambiguous` is set
   bool budget_exhausted = false;     ///< time budget or node cap reached: best so far returned
+  /// The time budget (a safety cap the machine's speed decides), not the node cap, ended a search.
+  bool clock_ran_out = false;
   double coverage = 0.0;             ///< covered share of the layer area
   double score = 0.0;                ///< sum over components of the search score [m^2]
   double runner_up_gap = -1.0;       ///< score gap to the best different layout [m^2]; -1 = none
