@@ -6,6 +6,8 @@
 // With --sequence the layer is picked until it is gone, each check against the result the last
 // one left (after_pick), as in the cell. Prints, per profile, how often the verdict is right,
 // missed and double picks called pick_ok, the moved neighbours' pose error and the time per check.
+// PALLETD_BENCH_VERBOSE=1 prints every wrong check; PALLETD_BENCH_DETAIL=1 adds, for each box left
+// standing, how far the pose checked against was from the truth and what the check read.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -96,6 +98,19 @@ std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before
                  label.c_str(), sim::to_string(outcome.event), to_string(expected[kind]),
                  to_string(c.verdict), c.message.c_str(), moved_mm, turned_deg, seen.shift_mm, seen.turn_deg,
                  seen.sides_seen);
+  if (!right && std::getenv("PALLETD_BENCH_DETAIL") != nullptr)
+    for (std::size_t j = 0; j < c.boxes.size(); ++j) {
+      const BoxCheck& b = c.boxes[j];
+      if (b.picked || !b.present) continue;
+      const std::size_t k = scene_box(scene, last.boxes[j]);
+      const Eigen::Vector2d err = last.boxes[j].base_position->head<2>() - scene.boxes[k].center;
+      double yaw_err = *last.boxes[j].base_yaw_deg - scene.boxes[k].yaw_rad * 180.0 / M_PI;
+      while (yaw_err > 90.0) yaw_err -= 180.0;
+      while (yaw_err < -90.0) yaw_err += 180.0;
+      std::fprintf(
+          stderr, "   box %zu: pose before err %.1f mm %.2f deg | check shift %.1f turn %.2f sides %d%s\n", j,
+          1e3 * err.norm(), yaw_err, b.shift_mm, b.turn_deg, b.sides_seen, b.moved ? " MOVED" : "");
+    }
   return {c, std::move(frame_after.frame)};
 }
 
