@@ -4,10 +4,12 @@
 // turns the pick is clean, missed, a double pick (a neighbour gone too), or a neighbour is
 // dragged 5-40 mm toward the gap or turned 2-5 degrees where it has room (sim::simulate_pick).
 // With --sequence the layer is picked until it is gone, each check against the result the last
-// one left (after_pick), as in the cell. Prints, per profile, how often the verdict is right,
-// missed and double picks called pick_ok, the moved neighbours' pose error and the time per check.
+// one left (after_pick), as in the cell. Prints, per profile, how often the check is right (its
+// verdict, and no box the pick did not move called moved to where it does not stand), missed and
+// double picks called pick_ok, the moved neighbours' pose error and the time per check.
 // PALLETD_BENCH_VERBOSE=1 prints every wrong check; PALLETD_BENCH_DETAIL=1 adds, for each box left
-// standing, how far the pose checked against was from the truth and what the check read.
+// standing, how far the pose checked against was from the truth and what the check read (for
+// every check with PALLETD_BENCH_DETAIL_ALL=1 too).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -28,6 +30,7 @@ namespace {
 
 struct Tally {
   int checks = 0, right = 0, unsafe_ok = 0, turns_asked = 0, turns_done = 0;
+  int misplaced = 0;  ///< checks that put a box the pick did not move somewhere it does not stand
   int per_case[5] = {0, 0, 0, 0, 0}, right_per_case[5] = {0, 0, 0, 0, 0};
   std::vector<double> pose_error_mm, check_ms;
 };
@@ -82,7 +85,19 @@ std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before
   const double turned_deg = std::abs(outcome.turn_rad) * 180.0 / M_PI;
   const bool moves = kind >= 3;
   const bool small = moves && moved_mm <= 12.0 && turned_deg < 1.0;
-  const bool right = c.verdict == expected[kind] || (small && c.verdict == PickVerdict::kPickOk);
+  // A box the pick did not move, called moved to where it does not stand (beyond the tolerance),
+  // makes the check wrong whatever its verdict: its new pose is published (after_pick).
+  bool misplaced = false;
+  for (std::size_t j = 0; j < c.boxes.size(); ++j) {
+    const BoxCheck& b = c.boxes[j];
+    if (!b.moved || static_cast<int>(j) == other) continue;
+    const std::size_t k = scene_box(scene, last.boxes[j]);
+    misplaced = misplaced || 1e3 * (b.now.base_position->head<2>() - scene.boxes[k].center).norm() >
+                                 PickCheckParams{}.tolerance_mm;
+  }
+  t.misplaced += misplaced ? 1 : 0;
+  const bool right =
+      !misplaced && (c.verdict == expected[kind] || (small && c.verdict == PickVerdict::kPickOk));
   t.right += right ? 1 : 0;
   t.right_per_case[kind] += right ? 1 : 0;
   if ((kind == 1 || kind == 2) && c.verdict == PickVerdict::kPickOk) ++t.unsafe_ok;
@@ -98,7 +113,8 @@ std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before
                  label.c_str(), sim::to_string(outcome.event), to_string(expected[kind]),
                  to_string(c.verdict), c.message.c_str(), moved_mm, turned_deg, seen.shift_mm, seen.turn_deg,
                  seen.sides_seen);
-  if (!right && std::getenv("PALLETD_BENCH_DETAIL") != nullptr)
+  if ((!right || std::getenv("PALLETD_BENCH_DETAIL_ALL") != nullptr) &&
+      std::getenv("PALLETD_BENCH_DETAIL") != nullptr)
     for (std::size_t j = 0; j < c.boxes.size(); ++j) {
       const BoxCheck& b = c.boxes[j];
       if (b.picked || !b.present) continue;
@@ -108,8 +124,12 @@ std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before
       while (yaw_err > 90.0) yaw_err -= 180.0;
       while (yaw_err < -90.0) yaw_err += 180.0;
       std::fprintf(
-          stderr, "   box %zu: pose before err %.1f mm %.2f deg | check shift %.1f turn %.2f sides %d%s\n", j,
-          1e3 * err.norm(), yaw_err, b.shift_mm, b.turn_deg, b.sides_seen, b.moved ? " MOVED" : "");
+          stderr,
+          "   %s %s box %zu (scene %zu%s): pose before err %.1f mm %.2f deg | check shift %.1f turn %.2f "
+          "sides %d%s\n",
+          label.c_str(), sim::to_string(outcome.event), j, k,
+          outcome.neighbour && *outcome.neighbour == k ? ", the one moved" : "", 1e3 * err.norm(), yaw_err,
+          b.shift_mm, b.turn_deg, b.sides_seen, b.moved ? " MOVED" : "");
     }
   return {c, std::move(frame_after.frame)};
 }
@@ -181,9 +201,12 @@ int main(int argc, char** argv) {
                 percentile(t.pose_error_mm, 50.0), percentile(t.pose_error_mm, 100.0),
                 percentile(t.check_ms, 50.0), percentile(t.check_ms, 95.0));
   }
-  int turns_asked = 0, turns_done = 0;
-  for (const Tally& t : tallies) turns_asked += t.turns_asked, turns_done += t.turns_done;
-  std::printf("\nTurns asked %d, made %d (the rest had no room and were dragged).\n", turns_asked,
-              turns_done);
+  int turns_asked = 0, turns_done = 0, misplaced = 0;
+  for (const Tally& t : tallies)
+    turns_asked += t.turns_asked, turns_done += t.turns_done, misplaced += t.misplaced;
+  std::printf(
+      "\nTurns asked %d, made %d (the rest had no room and were dragged). Checks that put a box the pick did "
+      "not move where it does not stand: %d (not right).\n",
+      turns_asked, turns_done, misplaced);
   return 0;
 }
