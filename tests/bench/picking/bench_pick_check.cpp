@@ -56,6 +56,42 @@ int detected_box(const Detection& d, const Eigen::Vector2d& at) {
   return best;
 }
 
+/// Whether the check called a box other than `moved` (the detected box the pick moved, -1 for
+/// none) moved to where it does not stand: further than the tolerance from its box in `scene`.
+bool misplaces_a_box(const PickCheck& c, const Detection& last, const sim::Scene& scene, int moved) {
+  for (std::size_t j = 0; j < c.boxes.size(); ++j) {
+    const BoxCheck& b = c.boxes[j];
+    if (!b.moved || static_cast<int>(j) == moved) continue;
+    const std::size_t k = scene_box(scene, last.boxes[j]);
+    if (1e3 * (b.now.base_position->head<2>() - scene.boxes[k].center).norm() >
+        PickCheckParams{}.tolerance_mm)
+      return true;
+  }
+  return false;
+}
+
+/// For each box left standing: how far the pose checked against lies from its box in `scene`
+/// (after the pick), and what the check read (PALLETD_BENCH_DETAIL).
+void print_detail(const PickCheck& c, const Detection& last, const sim::Scene& scene,
+                  const sim::PickOutcome& outcome, const std::string& label) {
+  for (std::size_t j = 0; j < c.boxes.size(); ++j) {
+    const BoxCheck& b = c.boxes[j];
+    if (b.picked || !b.present) continue;
+    const std::size_t k = scene_box(scene, last.boxes[j]);
+    const Eigen::Vector2d err = last.boxes[j].base_position->head<2>() - scene.boxes[k].center;
+    double yaw_err = *last.boxes[j].base_yaw_deg - scene.boxes[k].yaw_rad * 180.0 / M_PI;
+    while (yaw_err > 90.0) yaw_err -= 180.0;
+    while (yaw_err < -90.0) yaw_err += 180.0;
+    std::fprintf(
+        stderr,
+        "   %s %s box %zu (scene %zu%s): pose before err %.1f mm %.2f deg | check shift %.1f turn %.2f "
+        "sides %d%s\n",
+        label.c_str(), sim::to_string(outcome.event), j, k,
+        outcome.neighbour && *outcome.neighbour == k ? ", the one moved" : "", 1e3 * err.norm(), yaw_err,
+        b.shift_mm, b.turn_deg, b.sides_seen, b.moved ? " MOVED" : "");
+  }
+}
+
 /// One pick of box 0 of `last` (seen in `before`), made in `scene` by the event `s` draws,
 /// checked and scored into `t`. Returns the check and the frame after it.
 std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before, sim::Scene& scene,
@@ -85,16 +121,9 @@ std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before
   const double turned_deg = std::abs(outcome.turn_rad) * 180.0 / M_PI;
   const bool moves = kind >= 3;
   const bool small = moves && moved_mm <= 12.0 && turned_deg < 1.0;
-  // A box the pick did not move, called moved to where it does not stand (beyond the tolerance),
-  // makes the check wrong whatever its verdict: its new pose is published (after_pick).
-  bool misplaced = false;
-  for (std::size_t j = 0; j < c.boxes.size(); ++j) {
-    const BoxCheck& b = c.boxes[j];
-    if (!b.moved || static_cast<int>(j) == other) continue;
-    const std::size_t k = scene_box(scene, last.boxes[j]);
-    misplaced = misplaced || 1e3 * (b.now.base_position->head<2>() - scene.boxes[k].center).norm() >
-                                 PickCheckParams{}.tolerance_mm;
-  }
+  // A box the pick did not move, called moved to where it does not stand, makes the check wrong
+  // whatever its verdict: its new pose is published (after_pick).
+  const bool misplaced = misplaces_a_box(c, last, scene, other);
   t.misplaced += misplaced ? 1 : 0;
   const bool right =
       !misplaced && (c.verdict == expected[kind] || (small && c.verdict == PickVerdict::kPickOk));
@@ -115,22 +144,7 @@ std::pair<PickCheck, Frame> check_one(const Detection& last, const Frame& before
                  seen.sides_seen);
   if ((!right || std::getenv("PALLETD_BENCH_DETAIL_ALL") != nullptr) &&
       std::getenv("PALLETD_BENCH_DETAIL") != nullptr)
-    for (std::size_t j = 0; j < c.boxes.size(); ++j) {
-      const BoxCheck& b = c.boxes[j];
-      if (b.picked || !b.present) continue;
-      const std::size_t k = scene_box(scene, last.boxes[j]);
-      const Eigen::Vector2d err = last.boxes[j].base_position->head<2>() - scene.boxes[k].center;
-      double yaw_err = *last.boxes[j].base_yaw_deg - scene.boxes[k].yaw_rad * 180.0 / M_PI;
-      while (yaw_err > 90.0) yaw_err -= 180.0;
-      while (yaw_err < -90.0) yaw_err += 180.0;
-      std::fprintf(
-          stderr,
-          "   %s %s box %zu (scene %zu%s): pose before err %.1f mm %.2f deg | check shift %.1f turn %.2f "
-          "sides %d%s\n",
-          label.c_str(), sim::to_string(outcome.event), j, k,
-          outcome.neighbour && *outcome.neighbour == k ? ", the one moved" : "", 1e3 * err.norm(), yaw_err,
-          b.shift_mm, b.turn_deg, b.sides_seen, b.moved ? " MOVED" : "");
-    }
+    print_detail(c, last, scene, outcome, label);
   return {c, std::move(frame_after.frame)};
 }
 
