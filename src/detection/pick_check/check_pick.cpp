@@ -53,6 +53,12 @@ constexpr double kReference_rad = 0.6 * M_PI / 180.0;
 constexpr std::size_t kMinBiasSamples = 20;
 /// Fewer seen cells than this: the box's top was not seen (hidden, no depth), taken as there.
 constexpr int kMinSeenCells = 20;
+/// A picked box still standing shows its whole top (inset) at the layer's height; less than this
+/// share of it and part of its place is open.
+constexpr double kWholeTopShare = 0.9;
+/// How far a side compared with the frame before may step as a whole from one frame to the next,
+/// in pixel pitches (one sigma): the difference of two roundings to a pixel (0.29 pitch each).
+constexpr double kPixelShare = 0.4;
 
 std::string frames_problem(const Frame& before, const Frame& after) {
   for (const Frame* f : {&before, &after})
@@ -103,8 +109,10 @@ using SideSamples = std::vector<std::optional<EdgeSample>>;
 /// compared with where the frame before showed them (`was`, its samples there); a side only the
 /// frame after shows (one the pick laid open) is compared with the side as detected, less the
 /// offset the frame before shows on average on sides facing the camera as this one does (`bias`).
+/// Where nothing was taken (`anything_taken` false: a missed pick), no side was laid open: a side
+/// only the frame after shows is a seam read in one frame and not the other, and is left out.
 pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d& box, const EdgeBias& bias,
-                          int& sides_seen) {
+                          bool anything_taken, int& sides_seen) {
   const Eigen::Rotation2Dd R(box.yaw_rad);
   const double ref_m = std::hypot(kReference_m, bias.spread_m);  // a laid-open side's reference offset
   pick_check::Move move;
@@ -116,7 +124,7 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
     std::vector<EdgeSample> moves;
     int per_side[4] = {0, 0, 0, 0};
     for (std::size_t k = 0; k < now.size(); ++k) {
-      if (!now[k]) continue;
+      if (!now[k] || (!was[k] && !anything_taken)) continue;
       EdgeSample m = *now[k];
       m.offset_m += pick_check::move_jacobian(m).dot(move.x) - (was[k] ? was[k]->offset_m : bias.of(box, m));
       moves.push_back(m);
@@ -127,21 +135,31 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
     move = pick_check::fit_move(moves, kCorrelatedCells * after.cell_m());
     // A side compared with the detected side shares that side's error, an offset (kReference_m,
     // with the offset's spread from side to side) and a turn (kReference_rad) common to its
-    // samples: both add to the move's uncertainty.
-    Eigen::Vector3d offset_lever[4], turn_lever[4];
-    for (int side = 0; side < 4; ++side) offset_lever[side] = turn_lever[side] = Eigen::Vector3d::Zero();
+    // samples: both add to the move's uncertainty. A side compared with the frame before shares
+    // where the pixels cut it in each frame: a straight side along a row of pixels steps by a
+    // pixel as a whole (kPixelShare of a pitch, one sigma).
+    Eigen::Vector3d offset_lever[4], turn_lever[4], pixel_lever[4];
+    for (int side = 0; side < 4; ++side)
+      offset_lever[side] = turn_lever[side] = pixel_lever[side] = Eigen::Vector3d::Zero();
     for (std::size_t k = 0; k < now.size(); ++k) {
-      if (!now[k] || was[k]) continue;
+      if (!now[k] || (!was[k] && !anything_taken)) continue;
       const EdgeSample& m = *now[k];
+      if (was[k]) {
+        pixel_lever[m.side] += pick_check::move_jacobian(m);
+        continue;
+      }
       const double along_m = m.side < 2 ? m.point_box.y() : m.point_box.x();
       offset_lever[m.side] += pick_check::move_jacobian(m);
       turn_lever[m.side] += along_m * pick_check::move_jacobian(m);
     }
     const Eigen::Matrix3d inverse = move.information.inverse();
+    const double pixel_m = kPixelShare * after.cell_m();
     for (int side = 0; side < 4; ++side) {
-      const Eigen::Vector3d a = inverse * offset_lever[side], b = inverse * turn_lever[side];
-      move.covariance +=
-          ref_m * ref_m * a * a.transpose() + kReference_rad * kReference_rad * b * b.transpose();
+      const Eigen::Vector3d a = inverse * offset_lever[side], b = inverse * turn_lever[side],
+                            c = inverse * pixel_lever[side];
+      move.covariance += ref_m * ref_m * a * a.transpose() +
+                         kReference_rad * kReference_rad * b * b.transpose() +
+                         pixel_m * pixel_m * c * c.transpose();
     }
   }
   return move;
@@ -265,17 +283,26 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   const EdgeBias bias = edge_bias(samples_before, last.boxes, T_layer_camera.translation(),
                                   last.layer.diagnostics.edges_moved_in_m);
 
+  // Presence first: whether anything was taken (a box gone, or a picked box whose top is no longer
+  // all seen: a neighbour dragged over its place hides that it is gone).
+  bool anything_taken = false;
   for (std::size_t i = 0; i < last.boxes.size(); ++i) {
-    const DetectedBox& box = last.boxes[i];
     BoxCheck c;
     c.box = static_cast<int>(i);
     c.picked = std::find(picked.begin(), picked.end(), c.box) != picked.end();
     int seen_cells = 0;
-    c.seen_share = pick_check::top_share(now, box.in_layer, kCheckInset_m, seen_cells);
+    c.seen_share = pick_check::top_share(now, last.boxes[i].in_layer, kCheckInset_m, seen_cells);
     c.present = seen_cells < kMinSeenCells || c.seen_share >= 0.5;
-    c.now = box;
+    c.now = last.boxes[i];
+    anything_taken = anything_taken || !c.present || (c.picked && c.seen_share < kWholeTopShare);
+    out.boxes.push_back(std::move(c));
+  }
+  for (std::size_t i = 0; i < last.boxes.size(); ++i) {
+    const DetectedBox& box = last.boxes[i];
+    BoxCheck& c = out.boxes[i];
     if (c.present && !c.picked) {
-      const pick_check::Move move = box_move(samples_before[i], now, box.in_layer, bias, c.sides_seen);
+      const pick_check::Move move =
+          box_move(samples_before[i], now, box.in_layer, bias, anything_taken, c.sides_seen);
       c.shift_mm = 1e3 * move.x.head<2>().norm();
       c.turn_deg = std::abs(move.x.z()) * 180.0 / M_PI;
       // Moved: beyond the tolerance, and beyond what the sides' scatter explains.
@@ -283,7 +310,6 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
                 move.significance() > kSignificance;
       if (c.moved) c.now = moved_box(box, move.x, last.layer.T_camera_layer, before.T_base_camera);
     }
-    out.boxes.push_back(std::move(c));
   }
   recheck_presence(now, last.boxes, out.boxes);
   std::string message;
