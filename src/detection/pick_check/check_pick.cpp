@@ -121,10 +121,12 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
     estimate.center += R * move.x.head<2>();
     estimate.yaw_rad += move.x.z();
     const auto now = pick_check::edge_samples(after, estimate, kReach_m);
+    // A side only the frame after shows counts where something was taken.
+    const auto counts = [&](std::size_t k) { return now[k] && (was[k] || anything_taken); };
     std::vector<EdgeSample> moves;
     int per_side[4] = {0, 0, 0, 0};
     for (std::size_t k = 0; k < now.size(); ++k) {
-      if (!now[k] || (!was[k] && !anything_taken)) continue;
+      if (!counts(k)) continue;
       EdgeSample m = *now[k];
       m.offset_m += pick_check::move_jacobian(m).dot(move.x) - (was[k] ? was[k]->offset_m : bias.of(box, m));
       moves.push_back(m);
@@ -142,7 +144,7 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
     for (int side = 0; side < 4; ++side)
       offset_lever[side] = turn_lever[side] = pixel_lever[side] = Eigen::Vector3d::Zero();
     for (std::size_t k = 0; k < now.size(); ++k) {
-      if (!now[k] || (!was[k] && !anything_taken)) continue;
+      if (!counts(k)) continue;
       const EdgeSample& m = *now[k];
       if (was[k]) {
         pixel_lever[m.side] += pick_check::move_jacobian(m);
@@ -193,6 +195,23 @@ EdgeBias edge_bias(const std::vector<SideSamples>& was, const std::vector<Detect
   bias.facing_m = upper_median(std::move(facing));
   bias.away_m = upper_median(std::move(away));
   return bias;
+}
+
+/// Each box of the last result, picked or not, and whether its top is still seen where it stood.
+std::vector<BoxCheck> presence(const Grid& now, const std::vector<DetectedBox>& boxes,
+                               const std::vector<int>& picked) {
+  std::vector<BoxCheck> checks;
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    BoxCheck c;
+    c.box = static_cast<int>(i);
+    c.picked = std::find(picked.begin(), picked.end(), c.box) != picked.end();
+    int seen_cells = 0;
+    c.seen_share = pick_check::top_share(now, boxes[i].in_layer, kCheckInset_m, seen_cells);
+    c.present = seen_cells < kMinSeenCells || c.seen_share >= 0.5;
+    c.now = boxes[i];
+    checks.push_back(std::move(c));
+  }
+  return checks;
 }
 
 /// Presence once more with the moved boxes' tops, where they stand now (grown by the error of
@@ -279,24 +298,17 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   now.add_frame(after, rays, T_layer_camera, pick_check::kBand_m, pick_check::kDrop_m);
   std::vector<SideSamples> samples_before;  // each box's sides in the frame before, once
   samples_before.reserve(last.boxes.size());
-  for (const DetectedBox& b : last.boxes) samples_before.push_back(pick_check::edge_samples(was, b.in_layer, kReach_m));
+  for (const DetectedBox& b : last.boxes)
+    samples_before.push_back(pick_check::edge_samples(was, b.in_layer, kReach_m));
   const EdgeBias bias = edge_bias(samples_before, last.boxes, T_layer_camera.translation(),
                                   last.layer.diagnostics.edges_moved_in_m);
 
-  // Presence first: whether anything was taken (a box gone, or a picked box whose top is no longer
-  // all seen: a neighbour dragged over its place hides that it is gone).
-  bool anything_taken = false;
-  for (std::size_t i = 0; i < last.boxes.size(); ++i) {
-    BoxCheck c;
-    c.box = static_cast<int>(i);
-    c.picked = std::find(picked.begin(), picked.end(), c.box) != picked.end();
-    int seen_cells = 0;
-    c.seen_share = pick_check::top_share(now, last.boxes[i].in_layer, kCheckInset_m, seen_cells);
-    c.present = seen_cells < kMinSeenCells || c.seen_share >= 0.5;
-    c.now = last.boxes[i];
-    anything_taken = anything_taken || !c.present || (c.picked && c.seen_share < kWholeTopShare);
-    out.boxes.push_back(std::move(c));
-  }
+  out.boxes = presence(now, last.boxes, picked);
+  // Whether anything was taken: a box gone, or a picked box whose top is no longer all seen (a
+  // neighbour dragged over its place hides that it is gone).
+  const bool anything_taken = std::any_of(out.boxes.begin(), out.boxes.end(), [](const BoxCheck& c) {
+    return !c.present || (c.picked && c.seen_share < kWholeTopShare);
+  });
   for (std::size_t i = 0; i < last.boxes.size(); ++i) {
     const DetectedBox& box = last.boxes[i];
     BoxCheck& c = out.boxes[i];
