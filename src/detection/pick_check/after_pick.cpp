@@ -26,6 +26,8 @@ Detection after_pick(const Detection& last, const PickCheck& check, const Frame&
     box.pick_index = static_cast<int>(out.boxes.size()) - 1;
     box.pick.reset();
   }
+  out.layer.diagnostics.side_steps_facing_m = check.side_steps_facing_m;
+  out.layer.diagnostics.side_steps_away_m = check.side_steps_away_m;
   out.timing_ms = check.timing_ms;
   out.message = std::string("after a pick (") + to_string(check.verdict) + "): " + check.message;
   if (params.gripper && !out.boxes.empty()) {

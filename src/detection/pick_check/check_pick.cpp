@@ -80,6 +80,8 @@ struct EdgeBias {
   /// half the detection's trim where that stands for them (a stereo camera's fattening varies
   /// between one and two pixels from side to side).
   double spread_m = 0.0;
+  /// What the frame before (or an earlier check, LayerDiagnostics) showed of each class.
+  std::optional<double> measured_facing_m, measured_away_m;
   [[nodiscard]] bool facing(const Box2d& box, const EdgeSample& s) const {
     const Eigen::Rotation2Dd R(box.yaw_rad);
     const Eigen::Vector2d at = box.center + R * s.point_box;
@@ -168,14 +170,15 @@ pick_check::Move box_move(const SideSamples& was, const Grid& after, const Box2d
 }
 
 /// The median offsets of the sides' steps from the detected sides in the frame the result came
-/// from, apart for sides facing the camera and away (each the other's where fewer than
-/// kMinBiasSamples samples show them). Where neither does, `trimmed_m`: how far the detection
-/// moved the layer's outline in, where the depth's edges lay outside the intensity image's (a
-/// stereo camera's matching window fattens the tops over what lies below them, so a side's step
-/// lies that far out; 0 where the outline was not moved).
-/// `was`: each box's samples in that frame.
+/// from, apart for sides facing the camera and away. A class with fewer than kMinBiasSamples
+/// samples takes what an earlier check measured on this layer (`layer`'s side steps: the layer
+/// shrinks pick by pick, and the sides still seen may all face one way), else the other class's.
+/// Where neither shows, `layer.edges_moved_in_m`: how far the detection moved the layer's outline
+/// in, where the depth's edges lay outside the intensity image's (a stereo camera's matching
+/// window fattens the tops over what lies below them, so a side's step lies that far out; 0
+/// where the outline was not moved). `was`: each box's samples in that frame.
 EdgeBias edge_bias(const std::vector<SideSamples>& was, const std::vector<DetectedBox>& boxes,
-                   const Eigen::Vector3d& camera_layer, double trimmed_m) {
+                   const Eigen::Vector3d& camera_layer, const LayerDiagnostics& layer) {
   EdgeBias bias;
   bias.camera_layer = camera_layer;
   std::vector<double> facing, away;
@@ -183,17 +186,17 @@ EdgeBias edge_bias(const std::vector<SideSamples>& was, const std::vector<Detect
     for (const auto& s : was[i])
       if (s) (bias.facing(boxes[i].in_layer, *s) ? facing : away).push_back(s->offset_m);
   // Too few samples say nothing about the camera's offsets.
-  if (facing.size() < kMinBiasSamples) facing.clear();
-  if (away.size() < kMinBiasSamples) away.clear();
-  if (facing.empty() && away.empty()) {
-    bias.facing_m = bias.away_m = trimmed_m;
-    bias.spread_m = 0.5 * trimmed_m;
+  bias.measured_facing_m = facing.size() < kMinBiasSamples ? layer.side_steps_facing_m
+                                                           : std::optional(upper_median(std::move(facing)));
+  bias.measured_away_m =
+      away.size() < kMinBiasSamples ? layer.side_steps_away_m : std::optional(upper_median(std::move(away)));
+  if (!bias.measured_facing_m && !bias.measured_away_m) {
+    bias.facing_m = bias.away_m = layer.edges_moved_in_m;
+    bias.spread_m = 0.5 * layer.edges_moved_in_m;
     return bias;
   }
-  if (facing.empty()) facing = away;
-  if (away.empty()) away = facing;
-  bias.facing_m = upper_median(std::move(facing));
-  bias.away_m = upper_median(std::move(away));
+  bias.facing_m = bias.measured_facing_m.value_or(*bias.measured_away_m);
+  bias.away_m = bias.measured_away_m.value_or(*bias.measured_facing_m);
   return bias;
 }
 
@@ -300,8 +303,10 @@ PickCheck check_pick(const Frame& before, const Detection& last, const Frame& af
   samples_before.reserve(last.boxes.size());
   for (const DetectedBox& b : last.boxes)
     samples_before.push_back(pick_check::edge_samples(was, b.in_layer, kReach_m));
-  const EdgeBias bias = edge_bias(samples_before, last.boxes, T_layer_camera.translation(),
-                                  last.layer.diagnostics.edges_moved_in_m);
+  const EdgeBias bias =
+      edge_bias(samples_before, last.boxes, T_layer_camera.translation(), last.layer.diagnostics);
+  out.side_steps_facing_m = bias.measured_facing_m;
+  out.side_steps_away_m = bias.measured_away_m;
 
   out.boxes = presence(now, last.boxes, picked);
   // Whether anything was taken: a box gone, or a picked box whose top is no longer all seen (a

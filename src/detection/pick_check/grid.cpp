@@ -156,31 +156,43 @@ Move fit_move(const std::vector<EdgeSample>& moves, double correlated_m) {
   // n . (t + theta * perp(p)) = offset; a weak prior holds what no side constrains at 0.
   constexpr double kPrior = 0.5, kHuber_m = 0.003;
   Move out;
-  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
-  double weighted_sq = 0.0, weights = 0.0;
+  Eigen::Matrix3d prior = kPrior * Eigen::Matrix3d::Identity();
+  prior(2, 2) = kPrior * 0.04;  // a turn of 1 rad moves a side 0.2 m away by 0.2 m
+  // Per axis of the box (sides 0-1 measure along its long side, 2-3 along its short side): the
+  // samples' information, weighted squared residuals and weights.
+  Eigen::Matrix3d A_axis[2];
+  double weighted_sq[2] = {0.0, 0.0}, weights[2] = {0.0, 0.0};
   for (int iteration = 0; iteration < 4; ++iteration) {
-    A = kPrior * Eigen::Matrix3d::Identity();
-    A(2, 2) = kPrior * 0.04;  // a turn of 1 rad moves a side 0.2 m away by 0.2 m
     Eigen::Vector3d b = Eigen::Vector3d::Zero();
-    weighted_sq = weights = 0.0;
+    A_axis[0] = A_axis[1] = Eigen::Matrix3d::Zero();
+    weighted_sq[0] = weighted_sq[1] = weights[0] = weights[1] = 0.0;
     for (const EdgeSample& m : moves) {
       const Eigen::Vector3d J = move_jacobian(m);
       const double residual = J.dot(out.x) - m.offset_m;
       // Plain least squares first, then Huber weights around its answer: weights around no move
       // would discount every sample of a box that moved far and leave the prior holding it still.
       const double w = iteration == 0 || std::abs(residual) <= kHuber_m ? 1.0 : kHuber_m / std::abs(residual);
-      A += w * J * J.transpose();
+      const int axis = m.side / 2;
+      A_axis[axis] += w * J * J.transpose();
       b += w * J * m.offset_m;
-      weighted_sq += w * residual * residual;
-      weights += w;
+      weighted_sq[axis] += w * residual * residual;
+      weights[axis] += w;
     }
-    out.x = A.ldlt().solve(b);
+    out.x = (prior + A_axis[0] + A_axis[1]).ldlt().solve(b);
   }
-  // The samples' scatter, never taken below a millimetre (the grid's and the pixels' steps).
-  const double sigma_sq = std::max(1e-6, weighted_sq / std::max(1.0, weights - 3.0));
+  // The samples' scatter, never taken below a millimetre (the grid's and the pixels' steps). A
+  // rigid move shifts every side of one axis alike: where that axis's samples scatter more
+  // than all of them do (a few lines that read steps tens of millimetres apart), its own scatter
+  // says how well they place the box along it.
+  const double pooled_sq =
+      std::max(1e-6, (weighted_sq[0] + weighted_sq[1]) / std::max(1.0, weights[0] + weights[1] - 3.0));
   const double lines_per_sample = std::max(1.0, correlated_m / kSampleSpacing_m);
-  out.covariance = lines_per_sample * sigma_sq * A.inverse();
-  out.information = A;
+  out.information = prior + A_axis[0] + A_axis[1];
+  const Eigen::Matrix3d inverse = out.information.inverse();
+  Eigen::Matrix3d scatter = pooled_sq * prior;
+  for (int axis = 0; axis < 2; ++axis)
+    scatter += std::max(pooled_sq, weighted_sq[axis] / std::max(1.0, weights[axis] - 1.0)) * A_axis[axis];
+  out.covariance = lines_per_sample * inverse * scatter * inverse;
   return out;
 }
 

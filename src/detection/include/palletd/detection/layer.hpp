@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -92,6 +93,10 @@ struct LayerDiagnostics {
   double edge_offset_m = 0.0;
   double edges_moved_in_m = 0.0;
   double edges_shifted_m = 0.0;
+  /// Where the sides' steps lie against the boxes' sides in this layer's frames, for sides that
+  /// face the camera and sides that face away [m], as a pick check measured them (check_pick);
+  /// unset until one has. after_pick() carries them on: later frames show fewer sides.
+  std::optional<double> side_steps_facing_m, side_steps_away_m;
   double t_plane_ms = 0.0, t_layer_ms = 0.0, t_contour_ms = 0.0;
 };
 

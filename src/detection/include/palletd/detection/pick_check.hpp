@@ -4,6 +4,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,9 @@ struct PickCheck {
   PickVerdict verdict = PickVerdict::kFailed;
   std::string message;
   std::vector<BoxCheck> boxes;  ///< every box of the last result, in its order
+  /// The sides' steps against the boxes' sides the check measured in the frame before, or took
+  /// from the last result where that frame showed too few sides (LayerDiagnostics).
+  std::optional<double> side_steps_facing_m, side_steps_away_m;
   std::map<std::string, double> timing_ms;
 };
 
