@@ -223,6 +223,7 @@ Detection with_layer(LayerResult layer, const DetectionParams& params) {
   out.timing_ms["plane"] = diag.t_plane_ms;
   out.timing_ms["layer"] = diag.t_layer_ms;
   out.timing_ms["contour"] = diag.t_contour_ms;
+  out.timing_ms["edges"] = diag.t_edges_ms;
   out.plane_camera = out.layer.plane_camera;
   out.clipped_by_image_border = diag.touches_image_border;
   out.outline_unobserved = diag.outline_along_invalid;

@@ -3,6 +3,7 @@
 #include "fattened_edges.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -14,6 +15,8 @@
 #include <CGAL/create_straight_skeleton_2.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "palletd/core/timing.hpp"
 
 #include "edge_offset.hpp"
 #include "layer_raster.hpp"
@@ -134,9 +137,8 @@ void keep_points_inside(const std::vector<PolygonWithHoles>& polygons, LayerResu
   layer.point_pixels.resize(std::min(kept, layer.point_pixels.size()));
 }
 
-}  // namespace
-
-LayerResult trim_fattened_edges(const Frame& frame, LayerResult layer, const LayerParams& params) {
+/// Stage 5b itself (trim_fattened_edges() times it).
+LayerResult trim_edges(const Frame& frame, LayerResult layer, const LayerParams& params) {
   if (layer.status != DetectionStatus::kOk || !(params.fattened_edge_min_px > 0.0)) return layer;
   const EdgeOffset edges = intensity_edge_offset(frame, layer);
   if (edges.samples == 0) return layer;
@@ -159,6 +161,15 @@ LayerResult trim_fattened_edges(const Frame& frame, LayerResult layer, const Lay
   keep_points_inside(layer.polygons, layer);
   layer.diagnostics.edges_moved_in_m = edges.inset_m;
   layer.diagnostics.edges_shifted_m = edges.shift_m.norm();
+  return layer;
+}
+
+}  // namespace
+
+LayerResult trim_fattened_edges(const Frame& frame, LayerResult layer, const LayerParams& params) {
+  const auto t_start = std::chrono::steady_clock::now();
+  layer = trim_edges(frame, std::move(layer), params);
+  layer.diagnostics.t_edges_ms = ms_since(t_start);
   return layer;
 }
 

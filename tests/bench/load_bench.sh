@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
-# Load benchmark (issue 9): trigger-to-ResultReady latency of the PLC's handshake (trigger every
-# 200 ms, replay of the bundled frames, recipe 6), first idle, then with 32 clients polling the
-# status and result blocks at 100 Hz each, in one run of one daemon. Prints p50/p99 of both and
-# the p99 ratio; exits 1 when the ratio exceeds 1.5 (the issue's bound) or a request failed.
-#   tests/bench/load_bench.sh [BUILD_DIR] [TRIGGERS=200] [POLLERS=32]
+# Load benchmark (issues 9 and 20): trigger-to-ResultReady latency of the PLC's handshake (trigger
+# every 200 ms, replay of the bundled frames, recipe 6 with its five formats), first idle, then
+# with 32 clients polling the status and result blocks at 100 Hz each and FLOODERS clients opening
+# 50 connections a second each, every one with a malformed or illegal request, in one run of one
+# daemon. Prints p50/p99 of both and the p99 ratio; exits 1 when the ratio exceeds 1.5 (issue 9's
+# bound) or a handshake or poll failed.
+#   tests/bench/load_bench.sh [BUILD_DIR] [TRIGGERS=200] [POLLERS=32] [FLOODERS=4]
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 build=${1:-$here/build}
 n=${2:-200}
 pollers=${3:-32}
+flooders=${4:-4}
 port=$((20000 + RANDOM % 20000))
 dir=$(mktemp -d /tmp/palletd-load-bench.XXXXXX)
 {
@@ -24,7 +27,8 @@ for _ in $(seq 100); do (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null && brea
 load=$build/tests/reliability/palletd_plc_load
 "$load" --port "$port" --triggers 22 --period-ms 200 --duration-s 60 >/dev/null  # warm-up: each frame once
 idle=$("$load" --port "$port" --triggers "$n" --period-ms 200 --duration-s 3600 | tail -1)
-busy=$("$load" --port "$port" --triggers "$n" --period-ms 200 --pollers "$pollers" --poll-hz 100 --duration-s 3600 | tail -1)
+busy=$("$load" --port "$port" --triggers "$n" --period-ms 200 --pollers "$pollers" --poll-hz 100 \
+  --flooders "$flooders" --flood-hz 50 --duration-s 3600 | tail -1)
 echo "idle:   $idle"
 echo "loaded: $busy"
 p99() { sed -n 's/.* p99=\([0-9.]*\) ms.*/\1/p' <<<"$1"; }

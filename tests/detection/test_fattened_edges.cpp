@@ -113,6 +113,10 @@ TEST_CASE("a stereo camera's fattened tops are moved back onto the intensity's e
   CHECK(std::abs(intensity_edge_offset(stereo.frame, d.layer).offset_m) < 0.5 * raw_edges.offset_m);
   CHECK(d.boxes.size() == stereo.truth.boxes.size());
   CHECK(worst_side_error_m(d, stereo) < 0.006);
+  // Its time is a stage of its own in the result (metrics: palletd_stage_seconds{stage="edges"}).
+  REQUIRE(d.timing_ms.count("edges") == 1);
+  CHECK(d.timing_ms.at("edges") > 0.0);
+  CHECK(d.timing_ms.at("edges") < d.timing_ms.at("total"));
   // Without an intensity image there is nothing to compare: the outline stays.
   Frame depth_only = stereo.frame;
   depth_only.intensity.clear();

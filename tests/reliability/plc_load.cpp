@@ -9,6 +9,8 @@
 #include "palletd/modbus/client.hpp"
 #include "palletd/modbus/register_map.hpp"
 
+#include "../modbus/raw_client.hpp"
+
 namespace palletd::test {
 
 using Clock = std::chrono::steady_clock;
@@ -77,6 +79,59 @@ void poller(const LoadOptions& o, const std::atomic<bool>& stop, Shared& shared)
   shared.report.torn_reads += torn;
 }
 
+/// The `k`-th bad request of a flooder: what a PLC program with a wrong address or a scanner
+/// sends. The first four are answered with an exception; the last two make the server drop the
+/// connection (a frame it cannot parse, half a frame).
+std::vector<std::uint8_t> bad_request(std::uint64_t k) {
+  using modbus::test::RawClient;
+  const auto tid = static_cast<std::uint16_t>(k);
+  switch (k % 6) {
+    case 0:  // past the end of the map: illegal data address
+      return RawClient::frame(tid, 1, RawClient::read_pdu(0x03, modbus::kRegisterCount, 10));
+    case 1:  // a function the server does not offer: illegal function
+      return RawClient::frame(tid, 1, RawClient::pdu(0x2B, 0, 0));
+    case 2:  // 200 registers in one read: illegal data value
+      return RawClient::frame(tid, 1, RawClient::read_pdu(0x03, 0, 200));
+    case 3:  // a write to a read-only register
+      return RawClient::frame(tid, 1, RawClient::pdu(0x06, modbus::kRegResultId, 1));
+    case 4:  // another protocol id and a length past the frame's
+      return RawClient::frame(tid, 1, RawClient::read_pdu(0x03, 0, 1), 7, 300);
+    default: {  // half a frame, then the connection closed
+      auto f = RawClient::frame(tid, 1, RawClient::read_pdu(0x03, 0, 1));
+      f.resize(f.size() / 2);
+      return f;
+    }
+  }
+}
+
+void flooder(const LoadOptions& o, int index, const std::atomic<bool>& stop, Shared& shared) {
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / o.flood_hz));
+  std::uint64_t k = static_cast<std::uint64_t>(index), connections = 0, exceptions = 0, connect_errors = 0;
+  auto next = Clock::now();
+  while (!stop.load()) {
+    {
+      modbus::test::RawClient client(o.host, static_cast<std::uint16_t>(o.port));
+      if (!client.connected() || !client.send(bad_request(k))) {
+        ++connect_errors;
+      } else {
+        ++connections;
+        const std::vector<std::uint8_t> answer = client.receive(std::chrono::milliseconds(100));
+        if (answer.size() == 9 && (answer[7] & 0x80) != 0) ++exceptions;
+      }
+    }
+    ++k;
+    next += period;
+    const auto now = Clock::now();
+    if (next < now) next = now;
+    std::this_thread::sleep_until(next);
+  }
+  std::lock_guard<std::mutex> lock(shared.mutex);
+  shared.report.flood_connections += connections;
+  shared.report.flood_exceptions += exceptions;
+  shared.report.flood_connect_errors += connect_errors;
+}
+
 }  // namespace
 
 LoadReport run_load(const LoadOptions& o, const std::atomic<bool>* external_stop,
@@ -85,6 +140,7 @@ LoadReport run_load(const LoadOptions& o, const std::atomic<bool>* external_stop
   std::atomic<bool> stop{false};
   std::vector<std::thread> pollers;
   for (int i = 0; i < o.pollers; ++i) pollers.emplace_back([&] { poller(o, stop, shared); });
+  for (int i = 0; i < o.flooders; ++i) pollers.emplace_back([&, i] { flooder(o, i, stop, shared); });
 
   const auto start = Clock::now();
   const auto end = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration_s));

@@ -98,6 +98,7 @@ struct LayerDiagnostics {
   /// unset until one has. after_pick() carries them on: later frames show fewer sides.
   std::optional<double> side_steps_facing_m, side_steps_away_m;
   double t_plane_ms = 0.0, t_layer_ms = 0.0, t_contour_ms = 0.0;
+  double t_edges_ms = 0.0;  ///< stage 5b, the fattened tops trimmed (trim_fattened_edges)
 };
 
 /// Intermediate results kept for debug pictures (render_layer_debug_images in layer_debug.hpp).
