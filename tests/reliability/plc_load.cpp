@@ -139,6 +139,7 @@ LoadReport run_load(const LoadOptions& o, const std::atomic<bool>* external_stop
   Shared shared;
   std::atomic<bool> stop{false};
   std::vector<std::thread> pollers;
+  pollers.reserve(static_cast<std::size_t>(o.pollers + o.flooders));
   for (int i = 0; i < o.pollers; ++i) pollers.emplace_back([&] { poller(o, stop, shared); });
   for (int i = 0; i < o.flooders; ++i) pollers.emplace_back([&, i] { flooder(o, i, stop, shared); });
 

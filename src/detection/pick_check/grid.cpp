@@ -160,11 +160,11 @@ Move fit_move(const std::vector<EdgeSample>& moves, double correlated_m) {
   prior(2, 2) = kPrior * 0.04;  // a turn of 1 rad moves a side 0.2 m away by 0.2 m
   // Per axis of the box (sides 0-1 measure along its long side, 2-3 along its short side): the
   // samples' information, weighted squared residuals and weights.
-  Eigen::Matrix3d A_axis[2];
+  Eigen::Matrix3d axis_information[2];
   double weighted_sq[2] = {0.0, 0.0}, weights[2] = {0.0, 0.0};
   for (int iteration = 0; iteration < 4; ++iteration) {
     Eigen::Vector3d b = Eigen::Vector3d::Zero();
-    A_axis[0] = A_axis[1] = Eigen::Matrix3d::Zero();
+    axis_information[0] = axis_information[1] = Eigen::Matrix3d::Zero();
     weighted_sq[0] = weighted_sq[1] = weights[0] = weights[1] = 0.0;
     for (const EdgeSample& m : moves) {
       const Eigen::Vector3d J = move_jacobian(m);
@@ -173,12 +173,12 @@ Move fit_move(const std::vector<EdgeSample>& moves, double correlated_m) {
       // would discount every sample of a box that moved far and leave the prior holding it still.
       const double w = iteration == 0 || std::abs(residual) <= kHuber_m ? 1.0 : kHuber_m / std::abs(residual);
       const int axis = m.side / 2;
-      A_axis[axis] += w * J * J.transpose();
+      axis_information[axis] += w * J * J.transpose();
       b += w * J * m.offset_m;
       weighted_sq[axis] += w * residual * residual;
       weights[axis] += w;
     }
-    out.x = (prior + A_axis[0] + A_axis[1]).ldlt().solve(b);
+    out.x = (prior + axis_information[0] + axis_information[1]).ldlt().solve(b);
   }
   // The samples' scatter, never taken below a millimetre (the grid's and the pixels' steps). A
   // rigid move shifts every side of one axis alike: where that axis's samples scatter more
@@ -187,11 +187,12 @@ Move fit_move(const std::vector<EdgeSample>& moves, double correlated_m) {
   const double pooled_sq =
       std::max(1e-6, (weighted_sq[0] + weighted_sq[1]) / std::max(1.0, weights[0] + weights[1] - 3.0));
   const double lines_per_sample = std::max(1.0, correlated_m / kSampleSpacing_m);
-  out.information = prior + A_axis[0] + A_axis[1];
+  out.information = prior + axis_information[0] + axis_information[1];
   const Eigen::Matrix3d inverse = out.information.inverse();
   Eigen::Matrix3d scatter = pooled_sq * prior;
   for (int axis = 0; axis < 2; ++axis)
-    scatter += std::max(pooled_sq, weighted_sq[axis] / std::max(1.0, weights[axis] - 1.0)) * A_axis[axis];
+    scatter +=
+        std::max(pooled_sq, weighted_sq[axis] / std::max(1.0, weights[axis] - 1.0)) * axis_information[axis];
   out.covariance = lines_per_sample * inverse * scatter * inverse;
   return out;
 }
