@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 
 namespace palletd::modbus {
@@ -161,7 +162,7 @@ void encode_picks(const ResultRecord& result, std::uint16_t reported_boxes, Word
   for (const GroupRecord& g : result.groups) {
     if (reported == kMaxGroups) break;
     if (!group_in_slots(g, reported_boxes)) continue;
-    std::uint16_t* slot = r + kGroupStart + kGroupStride * reported;
+    std::uint16_t* slot = r + kGroupStart + static_cast<std::ptrdiff_t>(kGroupStride) * reported;
     encode_pose(g, order, slot);
     slot[7] = g.box_count;
     slot[8] = g.first_box;
@@ -220,7 +221,7 @@ void encode_result(const ResultRecord& result, std::uint16_t result_id, WordOrde
   r[kRegBestRecipe] = result.best_recipe;
   for (std::uint16_t i = 0; i < reported; ++i) {
     const BoxRecord& b = result.boxes[i];
-    std::uint16_t* slot = r + kBoxStart + kBoxStride * i;
+    std::uint16_t* slot = r + kBoxStart + static_cast<std::ptrdiff_t>(kBoxStride) * i;
     encode_pose(b, order, slot);
     slot[7] = b.format;
     slot[8] = unit_to_permille(b.score);
@@ -259,7 +260,7 @@ void decode_picks(const std::uint16_t* r, WordOrder order, DecodedResult& d) {
   rec.pickable_boxes = r[kRegPickableBoxes];
   const std::uint16_t reported = std::min<std::uint16_t>(r[kRegGroupsReported], kMaxGroups);
   for (std::uint16_t g = 0; g < reported; ++g) {
-    const std::uint16_t* slot = r + kGroupStart + kGroupStride * g;
+    const std::uint16_t* slot = r + kGroupStart + static_cast<std::ptrdiff_t>(kGroupStride) * g;
     GroupRecord group;
     decode_pose(slot, order, group);
     group.box_count = slot[7];
@@ -309,7 +310,7 @@ DecodedResult decode_result(const RegisterImage& image, WordOrder order) {
   rec.best_recipe = r[kRegBestRecipe];
   const std::uint16_t reported = std::min<std::uint16_t>(r[kRegBoxesReported], kMaxBoxes);
   for (std::uint16_t i = 0; i < reported; ++i) {
-    const std::uint16_t* slot = r + kBoxStart + kBoxStride * i;
+    const std::uint16_t* slot = r + kBoxStart + static_cast<std::ptrdiff_t>(kBoxStride) * i;
     BoxRecord b;
     decode_pose(slot, order, b);
     b.format = slot[7];

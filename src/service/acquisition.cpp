@@ -31,7 +31,8 @@ void Acquisition::stop() {
   camera_->shutdown();
   // Answer a caller still waiting.
   std::lock_guard<std::mutex> lock(mutex_);
-  if (pending_ && !pending_->answer) pending_->answer = Expected<Frame>(Error{"acquisition stopped"});
+  if (pending_ != nullptr && !pending_->answer)
+    pending_->answer = Expected<Frame>(Error{"acquisition stopped"});
   cv_.notify_all();
 }
 
@@ -117,9 +118,9 @@ void Acquisition::run() {
     {
       std::unique_lock<std::mutex> lock(mutex_);
       cv_.wait_for(lock, took_frame ? 0ms : 100ms,
-                   [&] { return !running_ || (pending_ && !pending_->answer); });
+                   [&] { return !running_ || (pending_ != nullptr && !pending_->answer); });
       if (!running_) break;
-      if (pending_ && !pending_->answer) {
+      if (pending_ != nullptr && !pending_->answer) {
         have_request = true;
         copy = Request{pending_->id, pending_->trigger_time, pending_->deadline, std::nullopt};
       }

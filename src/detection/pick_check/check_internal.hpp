@@ -92,9 +92,10 @@ std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2
 
 /// The box's move (box frame: shift along its long and short sides [m], turn [rad]) that best
 /// explains how its sides moved (robust least squares; a direction no side constrains stays 0),
-/// and its covariance from the samples' scatter. Samples closer along a side than `correlated_m`
-/// read the same pixels (a coarse pitch, a step taken from a cell beside the line): the scatter
-/// counts one independent sample per `correlated_m`, not one per line.
+/// and its covariance from the samples' scatter: all samples', or an axis's own where its samples
+/// (the sides across the box's length, or across its width) scatter more. Samples closer along a
+/// side than `correlated_m` read the same pixels (a coarse pitch, a step taken from a cell beside
+/// the line): the scatter counts one independent sample per `correlated_m`, not one per line.
 struct Move {
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();

@@ -159,7 +159,8 @@ Field<S> flag(const char* key, bool S::*member) {
 template <typename S>
 Field<S> text(const char* key, std::string S::*member, std::vector<std::string> allowed = {}) {
   return {key,
-          [member, allowed](const Context& ctx, const YAML::Node& node, const std::string& path, S& out) {
+          [member, allowed = std::move(allowed)](const Context& ctx, const YAML::Node& node,
+                                                 const std::string& path, S& out) {
             std::string v = read_string(ctx, node, path);
             if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), v) == allowed.end()) {
               std::string list;
@@ -205,7 +206,8 @@ template <typename S>
 Field<S> texts(const char* key, std::vector<std::string> S::*member,
                std::function<std::string(const std::string&)> check = {}) {
   return {key,
-          [member, check](const Context& ctx, const YAML::Node& node, const std::string& path, S& out) {
+          [member, check = std::move(check)](const Context& ctx, const YAML::Node& node,
+                                             const std::string& path, S& out) {
             std::vector<std::string> v = read_strings(ctx, node, path);
             if (check) {
               for (std::size_t i = 0; i < v.size(); ++i)
