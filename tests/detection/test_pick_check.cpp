@@ -58,13 +58,19 @@ Picking start(const std::string& profile_name, std::uint64_t seed,
   return p;
 }
 
+/// Index into scene.boxes of the built box of the top layer, not taken off, under `box`.
+std::size_t scene_box(const sim::Scene& scene, const DetectedBox& box) {
+  const Eigen::Vector2d at = box.base_position->head<2>();
+  const auto distance = [&](std::size_t k) {
+    return sim::taken_off(scene.boxes[k]) ? 1e9 : (scene.boxes[k].center - at).norm();
+  };
+  return *std::min_element(scene.top_layer.begin(), scene.top_layer.end(),
+                           [&](std::size_t a, std::size_t b) { return distance(a) < distance(b); });
+}
+
 /// Index into scene.boxes of the built box under detected box `i`.
 std::size_t scene_box(const Picking& p, int i) {
-  const Eigen::Vector2d at = p.last.boxes[static_cast<std::size_t>(i)].base_position->head<2>();
-  return *std::min_element(
-      p.scene.top_layer.begin(), p.scene.top_layer.end(), [&](std::size_t a, std::size_t b) {
-        return (p.scene.boxes[a].center - at).norm() < (p.scene.boxes[b].center - at).norm();
-      });
+  return scene_box(p.scene, p.last.boxes[static_cast<std::size_t>(i)]);
 }
 
 /// The detected box that stands next to box `i` along its long side (the nearest other box).
@@ -401,14 +407,7 @@ TEST_CASE("pick check: sides one check measured set where later checks look for 
   int drags = 0;
   for (std::uint64_t step = 0; step < 3; ++step) {
     const std::uint64_t s = sim::frame_seed(seed, step + 1);
-    const Eigen::Vector2d at = last.boxes[0].base_position->head<2>();
-    const std::size_t picked =
-        *std::min_element(scene.top_layer.begin(), scene.top_layer.end(), [&](std::size_t a, std::size_t b) {
-          auto d = [&](std::size_t k) {
-            return sim::taken_off(scene.boxes[k]) ? 1e9 : (scene.boxes[k].center - at).norm();
-          };
-          return d(a) < d(b);
-        });
+    const std::size_t picked = scene_box(scene, last.boxes[0]);
     const sim::PickEvent event = step == 2 ? sim::PickEvent::kDrag : sim::PickEvent::kClean;
     const sim::PickOutcome outcome = sim::simulate_pick(scene, picked, event, s);
     const Frame after = sim::render(scene, p.profile, s + 7).frame;

@@ -43,6 +43,14 @@ struct Shared {
   }
 };
 
+/// Sleeps until the next of a client's ticks `period` apart; behind, it does not burst to catch up.
+void wait_next(Clock::time_point& next, Clock::duration period) {
+  next += period;
+  const auto now = Clock::now();
+  if (next < now) next = now;
+  std::this_thread::sleep_until(next);
+}
+
 void poller(const LoadOptions& o, const std::atomic<bool>& stop, Shared& shared) {
   auto client = std::make_unique<modbus::PlcClient>(o.host, o.port, o.unit_id);
   if (Status s = client->connect(); !s) {
@@ -68,10 +76,7 @@ void poller(const LoadOptions& o, const std::atomic<bool>& stop, Shared& shared)
       ++cycles;
       if (image[modbus::kRegResultId] != image[modbus::kResultIdCopy]) ++torn;
     }
-    next += period;
-    const auto now = Clock::now();
-    if (next < now) next = now;  // behind: do not burst to catch up
-    std::this_thread::sleep_until(next);
+    wait_next(next, period);
   }
   std::lock_guard<std::mutex> lock(shared.mutex);
   shared.report.poll_cycles += cycles;
@@ -121,10 +126,7 @@ void flooder(const LoadOptions& o, int index, const std::atomic<bool>& stop, Sha
       }
     }
     ++k;
-    next += period;
-    const auto now = Clock::now();
-    if (next < now) next = now;
-    std::this_thread::sleep_until(next);
+    wait_next(next, period);
   }
   std::lock_guard<std::mutex> lock(shared.mutex);
   shared.report.flood_connections += connections;
