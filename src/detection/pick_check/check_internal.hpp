@@ -86,7 +86,9 @@ constexpr double kSampleSpacing_m = 0.010;
 /// Where the box's sides step down in the grid, along lines across each side every 10 mm,
 /// looking `reach_m` inward and outward: the outermost top point within a cell of the line
 /// before the first lower cell on it (a pixel straddling the edge is the side's last top point,
-/// wherever the grid's cells cut the pixels). A side that abuts another box's top shows no step.
+/// wherever the grid's cells cut the pixels); the lower cell may lie further out than the reach
+/// where no cell between shows anything (the side's shadow over a deep hole). A side that abuts
+/// another box's top shows no step.
 /// Samples come in a fixed order (side, then position), with nullopt where no step was found.
 std::vector<std::optional<EdgeSample>> edge_samples(const Grid& grid, const Box2d& box, double reach_m);
 

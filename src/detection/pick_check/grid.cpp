@@ -84,12 +84,19 @@ double top_share(const Grid& grid, const Box2d& box, double inset_m, int& seen_c
 
 namespace {
 
+/// How far past the reach a side's shadow may hide the lower level [m]: a camera 20-30 degrees
+/// off a side that drops one carton (150-400 mm) into a hole a pick left sees nothing below it
+/// for 50-230 mm beyond the side (the stereo camera's second view hides more); with the 60 mm
+/// reach the check covers 180 mm.
+constexpr double kShadow_m = 0.12;
+
 /// Where, along the line p + s n for s in [-reach, reach], the top ends before the first lower
 /// cell (the step down): at the outermost top point (along n) in the cells the line crosses and
 /// their neighbours one cell to either side along t. A grid of one cell per pixel leaves cells
 /// between the pixels empty, so the line alone may miss the pixel that straddles the edge. Cells
 /// between may be unknown, the side's own shadow where the camera looks past the edge, so the
-/// lower cell says only that the step came before it. nullopt without one.
+/// lower cell says only that the step came before it; past the reach, up to kShadow_m further,
+/// too. nullopt without one.
 std::optional<double> step_along(const Grid& grid, const Eigen::Vector2d& p, const Eigen::Vector2d& n,
                                  const Eigen::Vector2d& t, double reach_m) {
   // Half a cell: every cell the line crosses is looked at; where the step lies comes from the
@@ -113,6 +120,17 @@ std::optional<double> step_along(const Grid& grid, const Eigen::Vector2d& p, con
       take(at + beside);
     }
     if (!top && outermost && grid.at(at) == Seen::kLower) return outermost;
+  }
+  if (!outermost) return std::nullopt;
+  // Past the reach only the lower level may still come: the side's shadow where the camera looks
+  // past a tall step (a deep hole a pick left) hides it further out than the reach. A top there
+  // is another box's: no step.
+  for (double s = reach_m + step_m; s <= reach_m + kShadow_m; s += step_m) {
+    const Eigen::Vector2d at = p + s * n;
+    const Seen seen = grid.at(at);
+    if (seen == Seen::kTop || grid.at(at - beside) == Seen::kTop || grid.at(at + beside) == Seen::kTop)
+      return std::nullopt;
+    if (seen == Seen::kLower) return outermost;
   }
   return std::nullopt;
 }

@@ -33,7 +33,25 @@ struct Tally {
   int misplaced = 0;  ///< checks that put a box the pick did not move somewhere it does not stand
   int per_case[5] = {0, 0, 0, 0, 0}, right_per_case[5] = {0, 0, 0, 0, 0};
   std::vector<double> pose_error_mm, check_ms;
+
+  Tally& operator+=(const Tally& o) {
+    checks += o.checks, right += o.right, unsafe_ok += o.unsafe_ok;
+    turns_asked += o.turns_asked, turns_done += o.turns_done, misplaced += o.misplaced;
+    for (int k = 0; k < 5; ++k) per_case[k] += o.per_case[k], right_per_case[k] += o.right_per_case[k];
+    pose_error_mm.insert(pose_error_mm.end(), o.pose_error_mm.begin(), o.pose_error_mm.end());
+    check_ms.insert(check_ms.end(), o.check_ms.begin(), o.check_ms.end());
+    return *this;
+  }
 };
+
+/// One row of the table.
+void print_row(const std::string& name, const Tally& t) {
+  std::printf("| %s | %d | %d | %d/%d | %d/%d | %d/%d | %d/%d | %d/%d | %d | %.1f | %.1f | %.1f | %.1f |\n",
+              name.c_str(), t.checks, t.right, t.right_per_case[0], t.per_case[0], t.right_per_case[1],
+              t.per_case[1], t.right_per_case[2], t.per_case[2], t.right_per_case[3], t.per_case[3],
+              t.right_per_case[4], t.per_case[4], t.unsafe_ok, percentile(t.pose_error_mm, 50.0),
+              percentile(t.pose_error_mm, 100.0), percentile(t.check_ms, 50.0), percentile(t.check_ms, 95.0));
+}
 
 /// The standing scene box nearest to a detected one.
 std::size_t scene_box(const sim::Scene& s, const DetectedBox& b) {
@@ -206,21 +224,15 @@ int main(int argc, char** argv) {
       "| profile | checks | right | clean | missed | double | dragged | turned | missed or double called "
       "pick_ok | moved pose error median mm | max mm | check median ms | p95 ms |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  Tally all;
   for (std::size_t p = 0; p < profiles.size(); ++p) {
-    const Tally& t = tallies[p];
-    std::printf("| %s | %d | %d | %d/%d | %d/%d | %d/%d | %d/%d | %d/%d | %d | %.1f | %.1f | %.1f | %.1f |\n",
-                profiles[p].c_str(), t.checks, t.right, t.right_per_case[0], t.per_case[0],
-                t.right_per_case[1], t.per_case[1], t.right_per_case[2], t.per_case[2], t.right_per_case[3],
-                t.per_case[3], t.right_per_case[4], t.per_case[4], t.unsafe_ok,
-                percentile(t.pose_error_mm, 50.0), percentile(t.pose_error_mm, 100.0),
-                percentile(t.check_ms, 50.0), percentile(t.check_ms, 95.0));
+    print_row(profiles[p], tallies[p]);
+    all += tallies[p];
   }
-  int turns_asked = 0, turns_done = 0, misplaced = 0;
-  for (const Tally& t : tallies)
-    turns_asked += t.turns_asked, turns_done += t.turns_done, misplaced += t.misplaced;
+  print_row("all", all);
   std::printf(
       "\nTurns asked %d, made %d (the rest had no room and were dragged). Checks that put a box the pick did "
       "not move where it does not stand: %d (not right).\n",
-      turns_asked, turns_done, misplaced);
+      all.turns_asked, all.turns_done, all.misplaced);
   return 0;
 }
