@@ -12,9 +12,9 @@ template <typename Int>
 Int saturate_round(double value) {
   if (!std::isfinite(value)) return 0;
   const double r = std::round(value);
-  constexpr double lo = static_cast<double>(std::numeric_limits<Int>::min());
-  constexpr double hi = static_cast<double>(std::numeric_limits<Int>::max());
-  return static_cast<Int>(std::clamp(r, lo, hi));
+  constexpr double kLowest = static_cast<double>(std::numeric_limits<Int>::min());
+  constexpr double kHighest = static_cast<double>(std::numeric_limits<Int>::max());
+  return static_cast<Int>(std::clamp(r, kLowest, kHighest));
 }
 
 std::uint16_t low16(std::uint32_t v) { return static_cast<std::uint16_t>(v & 0xFFFFu); }

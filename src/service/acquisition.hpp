@@ -32,6 +32,8 @@ class Acquisition {
   ~Acquisition();  ///< stop()s
   Acquisition(const Acquisition&) = delete;
   Acquisition& operator=(const Acquisition&) = delete;
+  Acquisition(Acquisition&&) = delete;
+  Acquisition& operator=(Acquisition&&) = delete;
 
   void start();
   void stop();

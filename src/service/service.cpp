@@ -57,6 +57,10 @@ class Service::Impl {
         health_monitor_(config_->health) {}
 
   ~Impl() { stop(); }
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+  Impl(Impl&&) = delete;
+  Impl& operator=(Impl&&) = delete;
 
   Status start() {
     const Config& cfg = *config_;
@@ -295,11 +299,12 @@ class Service::Impl {
         }
       }
     }
-    publish(event, *cfg, std::move(snapshot), frame, record);
+    publish(event, *cfg, snapshot, frame, record);
   }
 
-  void publish(const modbus::HandshakeEvent& event, const Config& cfg, std::shared_ptr<ResultSnapshot> snapshot,
-               const std::shared_ptr<const Frame>& frame, const modbus::ResultRecord& record) {
+  void publish(const modbus::HandshakeEvent& event, const Config& cfg,
+               const std::shared_ptr<ResultSnapshot>& snapshot, const std::shared_ptr<const Frame>& frame,
+               const modbus::ResultRecord& record) {
     const auto done = Clock::now();
     snapshot->latency_ms = ms_between(event.time, done);
     snapshot->time = std::chrono::system_clock::now();

@@ -37,6 +37,8 @@ class ShadowRunner {
   void stop();
   ShadowRunner(const ShadowRunner&) = delete;
   ShadowRunner& operator=(const ShadowRunner&) = delete;
+  ShadowRunner(ShadowRunner&&) = delete;
+  ShadowRunner& operator=(ShadowRunner&&) = delete;
 
   /// The shadow configuration from now on (null: off). Any thread.
   void set_config(std::shared_ptr<const Config> shadow);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -184,7 +185,7 @@ EdgeEvidence edge_evidence(const Rect& r, const Table& table, AreaFn&& layer_are
   EdgeEvidence ev;
   const double seg = 0.04;
   for_each_box_side(r, margin_m, [&](const BoxSide& side) {
-    const int n = std::max(1, static_cast<int>((side.hi - side.lo) / seg + 0.5));
+    const int n = std::max(1, static_cast<int>(std::lround((side.hi - side.lo) / seg)));
     const double step = (side.hi - side.lo) / n;
     for (int k = 0; k < n; ++k) {
       const double s0 = side.lo + k * step, s1 = s0 + step;

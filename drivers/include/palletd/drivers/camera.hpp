@@ -131,6 +131,8 @@ class Camera {
     ~ControlCall();
     ControlCall(const ControlCall&) = delete;
     ControlCall& operator=(const ControlCall&) = delete;
+    ControlCall(ControlCall&&) = delete;
+    ControlCall& operator=(ControlCall&&) = delete;
 
    private:
     Camera& camera_;
@@ -192,6 +194,8 @@ class CameraSupervisor {
   ~CameraSupervisor();
   CameraSupervisor(const CameraSupervisor&) = delete;
   CameraSupervisor& operator=(const CameraSupervisor&) = delete;
+  CameraSupervisor(CameraSupervisor&&) = delete;
+  CameraSupervisor& operator=(CameraSupervisor&&) = delete;
 
   /// Brings the camera up if due (open + start), then grabs.
   Expected<Frame> grab(std::chrono::milliseconds timeout);

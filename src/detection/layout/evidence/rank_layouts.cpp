@@ -23,7 +23,7 @@ constexpr double kAgreementPiece_m = 0.04;
 /// reads a piece and returns a negative value where the piece is not part of the seam line.
 template <typename ValueFn>
 double median_along(double lo, double hi, ValueFn&& value) {
-  const int n = std::max(1, static_cast<int>((hi - lo) / kAgreementPiece_m + 0.5));
+  const int n = std::max(1, static_cast<int>(std::lround((hi - lo) / kAgreementPiece_m)));
   const double step = (hi - lo) / n;
   std::vector<double> v;
   for (int k = 0; k < n; ++k) {

@@ -74,10 +74,11 @@ struct Range {
   [[nodiscard]] bool contains(double v) const { return (lo_open ? v > lo : v >= lo) && v <= hi; }
   [[nodiscard]] std::string text() const {
     std::ostringstream s;
-    if (lo_open)
+    if (lo_open) {
       s << "> " << lo << " and <= " << hi;
-    else
+    } else {
       s << "between " << lo << " and " << hi;
+    }
     return s.str();
   }
 };
@@ -210,9 +211,10 @@ Field<S> texts(const char* key, std::vector<std::string> S::*member,
                                              const std::string& path, S& out) {
             std::vector<std::string> v = read_strings(ctx, node, path);
             if (check) {
-              for (std::size_t i = 0; i < v.size(); ++i)
+              for (std::size_t i = 0; i < v.size(); ++i) {
                 if (auto e = check(v[i]); !e.empty())
                   fail(ctx, node[i], path + "[" + std::to_string(i) + "]", e);
+              }
             }
             out.*member = std::move(v);
           },

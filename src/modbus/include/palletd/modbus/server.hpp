@@ -61,6 +61,8 @@ class ModbusServer {
   ~ModbusServer();  ///< stop()s
   ModbusServer(const ModbusServer&) = delete;
   ModbusServer& operator=(const ModbusServer&) = delete;
+  ModbusServer(ModbusServer&&) = delete;
+  ModbusServer& operator=(ModbusServer&&) = delete;
 
   /// Parses the address lists, binds and listens (so the port is taken when this returns ok),
   /// then starts the poll thread. Fails on a bad option or a port in use. Call it once: a

@@ -32,6 +32,8 @@ class Service {
   ~Service();                       ///< stop()s
   Service(const Service&) = delete;
   Service& operator=(const Service&) = delete;
+  Service(Service&&) = delete;
+  Service& operator=(Service&&) = delete;
 
   /// Binds the Modbus port, then starts the threads. Fails (with the reason) when the port is
   /// taken or an address list is malformed; nothing keeps running then.

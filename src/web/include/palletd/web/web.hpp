@@ -99,6 +99,8 @@ class WebServer {
   ~WebServer();  ///< stop()s
   WebServer(const WebServer&) = delete;
   WebServer& operator=(const WebServer&) = delete;
+  WebServer(WebServer&&) = delete;
+  WebServer& operator=(WebServer&&) = delete;
 
   /// Binds (so the port is taken when this returns ok), then starts the HTTP and sampler threads.
   /// Fails on a missing required callback, a bad address or a port in use. Call it once.
