@@ -277,3 +277,36 @@ TEST_CASE("obstacles above the layer: a post is one, a lone flying pixel is not,
       obstacles_above_layer(frame, rays, T_camera_layer, 0.03, nullptr, std::nullopt);
   CHECK(std::any_of(all.begin(), all.end(), [](const Eigen::Vector2d& p) { return p.x() < -0.6; }));
 }
+
+TEST_CASE(
+    "obstacles above the layer: the ring of pixels a post's edge mixes is not the post, a thin bar is kept",
+    "[picking]") {
+  Frame frame;
+  frame.intrinsics = Intrinsics{40, 30, 40.0, 40.0, 20.0, 15.0, std::nullopt};
+  frame.depth.assign(frame.pixel_count(), 2000);  // a layer 2 m from the camera, mm units
+  auto fill = [&](int u0, int u1, int v0, int v1, std::uint16_t depth_mm) {
+    for (int v = v0; v <= v1; ++v)
+      for (int u = u0; u <= u1; ++u) frame.depth[static_cast<std::size_t>(v * 40 + u)] = depth_mm;
+  };
+  // A post six pixels across 0.3 m above the layer, in a ring of pixels one wide that mix its top
+  // with the layer (0.15 m above it, outside the post), and a bar two pixels wide.
+  fill(23, 30, 9, 16, 1850);
+  fill(24, 29, 10, 15, 1700);
+  fill(5, 6, 5, 14, 1700);
+  const RayTable rays(frame.intrinsics);
+  Eigen::Isometry3d T_camera_layer = Eigen::Isometry3d::Identity();
+  T_camera_layer.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  T_camera_layer.translation() = Eigen::Vector3d(0.0, 0.0, 2.0);
+  const std::vector<Eigen::Vector2d> obstacles =
+      obstacles_above_layer(frame, rays, T_camera_layer, 0.03, nullptr, std::nullopt);
+  // The post: camera x (u - 20) * 1.7 / 40 = 0.17..0.38 m; the mixed ring at 0.14 and 0.46 m.
+  std::vector<double> post_x_m;
+  for (const Eigen::Vector2d& p : obstacles)
+    if (p.x() > 0.0) post_x_m.push_back(p.x());
+  REQUIRE_FALSE(post_x_m.empty());
+  CHECK(*std::min_element(post_x_m.begin(), post_x_m.end()) > 0.16);
+  CHECK(*std::max_element(post_x_m.begin(), post_x_m.end()) < 0.39);
+  // The bar at camera x -0.64..-0.60 m stays an obstacle.
+  CHECK(std::any_of(obstacles.begin(), obstacles.end(),
+                    [](const Eigen::Vector2d& p) { return p.x() < -0.55; }));
+}

@@ -38,6 +38,43 @@ bool between_walls(const Eigen::Vector3d& p, const RegionOfInterest* roi,
          q.y() <= roi->max_m.y();
 }
 
+/// The pixels above the layer that stand for an obstacle: each with at least three of its eight
+/// neighbours above too (a lone pixel or a line one pixel wide is noise), less the outer ring of
+/// a solid obstacle (pixels beside one whose eight neighbours are all above). That ring holds the
+/// pixels that straddle the obstacle's edge: a time-of-flight camera mixes the obstacle's top with
+/// what lies below it, a stereo camera fattens the top over its shadow, and both put them outside
+/// the obstacle, up to a pixel or more. The clearance covers the pixel an obstacle may lose. A
+/// thin obstacle (a bar two pixels wide) has no such inside and is kept whole.
+std::vector<std::uint8_t> obstacle_pixels(const std::vector<std::uint8_t>& above, int w, int h) {
+  std::vector<std::uint8_t> count(above.size(), 0);  // pixels above in the 3 x 3 around each
+  for (int v = 1; v + 1 < h; ++v) {
+    for (int u = 1; u + 1 < w; ++u) {
+      const std::size_t i =
+          static_cast<std::size_t>(v) * static_cast<std::size_t>(w) + static_cast<std::size_t>(u);
+      if (above[i] == 0) continue;
+      for (int dv = -1; dv <= 1; ++dv)
+        for (int du = -1; du <= 1; ++du)
+          count[i] = static_cast<std::uint8_t>(
+              count[i] + above[static_cast<std::size_t>(static_cast<long>(i) + dv * w + du)]);
+    }
+  }
+  std::vector<std::uint8_t> kept(above.size(), 0);
+  for (int v = 1; v + 1 < h; ++v) {
+    for (int u = 1; u + 1 < w; ++u) {
+      const std::size_t i =
+          static_cast<std::size_t>(v) * static_cast<std::size_t>(w) + static_cast<std::size_t>(u);
+      if (count[i] < 4) continue;  // itself and three neighbours
+      bool beside_inside = false;
+      for (int dv = -1; dv <= 1; ++dv)
+        for (int du = -1; du <= 1; ++du)
+          beside_inside =
+              beside_inside || count[static_cast<std::size_t>(static_cast<long>(i) + dv * w + du)] == 9;
+      kept[i] = count[i] == 9 || !beside_inside ? 1 : 0;
+    }
+  }
+  return kept;
+}
+
 }  // namespace
 
 std::vector<Eigen::Vector2d> obstacles_above_layer(const Frame& frame, const RayTable& rays,
@@ -65,16 +102,12 @@ std::vector<Eigen::Vector2d> obstacles_above_layer(const Frame& frame, const Ray
   constexpr double kCell_m = 0.005;
   // A cell's key: its two 32-bit signed indices side by side in one unsigned word.
   std::vector<std::uint64_t> cells;
+  const std::vector<std::uint8_t> kept = obstacle_pixels(above, w, h);
   for (int v = 1; v + 1 < h; ++v) {
     for (int u = 1; u + 1 < w; ++u) {
       const std::size_t i =
           static_cast<std::size_t>(v) * static_cast<std::size_t>(w) + static_cast<std::size_t>(u);
-      if (above[i] == 0) continue;
-      int neighbours = 0;
-      for (int dv = -1; dv <= 1; ++dv)
-        for (int du = -1; du <= 1; ++du)
-          neighbours += above[static_cast<std::size_t>(static_cast<long>(i) + dv * w + du)];
-      if (neighbours - 1 < 3) continue;
+      if (kept[i] == 0) continue;
       const Eigen::Vector3d q = T_layer_camera * point_of(i);
       const auto cx = static_cast<std::int32_t>(std::floor(q.x() / kCell_m));
       const auto cy = static_cast<std::int32_t>(std::floor(q.y() / kCell_m));

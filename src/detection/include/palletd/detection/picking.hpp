@@ -28,7 +28,9 @@ struct PickSurroundings {
 /// What stands more than `min_height_m` above the layer plane between the region of interest's
 /// walls (above its top too: a cabinet's top the region cuts off is still in the robot's way), in
 /// the layer frame, one point per 5 mm cell. A pixel counts only with at least three of its eight
-/// neighbours above too: a lone flying pixel is no obstacle, a post 20 mm thick is.
+/// neighbours above too: a lone flying pixel is no obstacle, a post 20 mm thick is. The outer ring
+/// of pixels around a solid obstacle's inside does not count: it straddles the obstacle's edge
+/// (mixed or fattened pixels outside it); a bar two pixels wide, without an inside, counts whole.
 /// `rays` must match the frame's intrinsics; a base-frame region needs `T_base_camera`.
 std::vector<Eigen::Vector2d> obstacles_above_layer(const Frame& frame, const RayTable& rays,
                                                    const Eigen::Isometry3d& T_camera_layer,
