@@ -38,6 +38,15 @@ bool between_walls(const Eigen::Vector3d& p, const RegionOfInterest* roi,
          q.y() <= roi->max_m.y();
 }
 
+/// Calls f(j) for each pixel j of the 3 x 3 around pixel i (itself too), in an image `w` wide.
+template <typename F>
+void around(std::size_t i, int w, F&& f) {
+  const auto at = static_cast<std::ptrdiff_t>(i), row = static_cast<std::ptrdiff_t>(w);
+  for (std::ptrdiff_t dv = -1; dv <= 1; ++dv) {
+    for (std::ptrdiff_t du = -1; du <= 1; ++du) f(static_cast<std::size_t>(at + dv * row + du));
+  }
+}
+
 /// The pixels above the layer that stand for an obstacle: each with at least three of its eight
 /// neighbours above too (a lone pixel or a line one pixel wide is noise), less the outer ring of
 /// a solid obstacle (pixels beside one whose eight neighbours are all above). That ring holds the
@@ -52,10 +61,9 @@ std::vector<std::uint8_t> obstacle_pixels(const std::vector<std::uint8_t>& above
       const std::size_t i =
           static_cast<std::size_t>(v) * static_cast<std::size_t>(w) + static_cast<std::size_t>(u);
       if (above[i] == 0) continue;
-      for (int dv = -1; dv <= 1; ++dv)
-        for (int du = -1; du <= 1; ++du)
-          count[i] = static_cast<std::uint8_t>(
-              count[i] + above[static_cast<std::size_t>(static_cast<long>(i) + dv * w + du)]);
+      int n = 0;
+      around(i, w, [&](std::size_t j) { n += above[j]; });
+      count[i] = static_cast<std::uint8_t>(n);
     }
   }
   std::vector<std::uint8_t> kept(above.size(), 0);
@@ -65,10 +73,7 @@ std::vector<std::uint8_t> obstacle_pixels(const std::vector<std::uint8_t>& above
           static_cast<std::size_t>(v) * static_cast<std::size_t>(w) + static_cast<std::size_t>(u);
       if (count[i] < 4) continue;  // itself and three neighbours
       bool beside_inside = false;
-      for (int dv = -1; dv <= 1; ++dv)
-        for (int du = -1; du <= 1; ++du)
-          beside_inside =
-              beside_inside || count[static_cast<std::size_t>(static_cast<long>(i) + dv * w + du)] == 9;
+      around(i, w, [&](std::size_t j) { beside_inside = beside_inside || count[j] == 9; });
       kept[i] = count[i] == 9 || !beside_inside ? 1 : 0;
     }
   }
