@@ -1,5 +1,5 @@
 // trim_fattened_edges(): the outline inset with CGAL's straight skeleton, the points beyond it
-// dropped through a raster of the inset outline.
+// and near the layer's edge in the image dropped through a raster of the inset outline.
 #include "fattened_edges.hpp"
 
 #include <algorithm>
@@ -101,8 +101,56 @@ std::vector<PolygonWithHoles> inset(const PolygonWithHoles& polygon, double inse
   return out;
 }
 
-/// Keeps the layer points (and their pixels) that lie inside `polygons`.
-void keep_points_inside(const std::vector<PolygonWithHoles>& polygons, LayerResult& layer) {
+/// Pixels without a measurement whose four neighbours are all layer points count as layer: a
+/// single dropout inside a top is no edge.
+void fill_dropouts(const Frame& frame, int u0, int v0, cv::Mat1b& mask) {
+  const cv::Mat1b seen = mask.clone();
+  for (int r = 1; r + 1 < mask.rows; ++r) {
+    for (int c = 1; c + 1 < mask.cols; ++c) {
+      if (seen(r, c) != 0) continue;
+      const std::size_t i =
+          static_cast<std::size_t>(v0 + r - 1) * static_cast<std::size_t>(frame.intrinsics.width) +
+          static_cast<std::size_t>(u0 + c - 1);
+      if (frame.depth[i] != 0) continue;
+      if (seen(r - 1, c) != 0 && seen(r + 1, c) != 0 && seen(r, c - 1) != 0 && seen(r, c + 1) != 0)
+        mask(r, c) = 255;
+    }
+  }
+}
+
+/// Each layer point's distance in the image to the nearest pixel that is no layer point (the
+/// layer's edge, a hole) [pixels]; -1 without the points' pixels.
+std::vector<float> distance_to_edge_px(const Frame& frame, const LayerResult& layer) {
+  const Intrinsics& in = frame.intrinsics;
+  std::vector<float> out(layer.points_2d.size(), -1.0F);
+  if (layer.point_pixels.size() != layer.points_2d.size() || in.width <= 0) return out;
+  int u0 = in.width, v0 = in.height, u1 = -1, v1 = -1;
+  for (const std::int32_t px : layer.point_pixels) {
+    u0 = std::min(u0, px % in.width), u1 = std::max(u1, px % in.width);
+    v0 = std::min(v0, px / in.width), v1 = std::max(v1, px / in.width);
+  }
+  if (u1 < u0) return out;
+  // One pixel of no layer around the window: the layer's edge where the window ends.
+  cv::Mat1b mask(v1 - v0 + 3, u1 - u0 + 3, static_cast<std::uint8_t>(0));
+  for (const std::int32_t px : layer.point_pixels) mask(px / in.width - v0 + 1, px % in.width - u0 + 1) = 255;
+  if (frame.depth.size() == static_cast<std::size_t>(in.width) * static_cast<std::size_t>(in.height))
+    fill_dropouts(frame, u0, v0, mask);
+  cv::Mat1f distance;
+  cv::distanceTransform(mask, distance, cv::DIST_L2, cv::DIST_MASK_5);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const std::int32_t px = layer.point_pixels[i];
+    out[i] = distance(px / in.width - v0 + 1, px % in.width - u0 + 1);
+  }
+  return out;
+}
+
+/// Keeps the layer points (and their pixels) that lie inside `polygons`, and those further than
+/// `keep_beyond_px` from the layer's edge in the image: the fattened band lies along the points'
+/// own edge, and where the simplified outline cuts a corner or steps inward at a seam, the carton
+/// top it leaves out is still carton top (the refinement reads the box's side where its points end).
+void keep_points_inside(const std::vector<PolygonWithHoles>& polygons, const Frame& frame,
+                        double keep_beyond_px, LayerResult& layer) {
+  const std::vector<float> edge_px = distance_to_edge_px(frame, layer);
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
   for (const PolygonWithHoles& p : polygons)
     for (const Eigen::Vector2d& v : p.outer) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
@@ -128,7 +176,8 @@ void keep_points_inside(const std::vector<PolygonWithHoles>& polygons, LayerResu
   for (std::size_t i = 0; i < layer.points_2d.size(); ++i) {
     const Eigen::Vector2f& q = layer.points_2d[i];
     const cv::Point c = to_cell(q.cast<double>());
-    if (c.x < 0 || c.y < 0 || c.x >= w || c.y >= h || inside(c) == 0) continue;
+    const bool deep = edge_px[i] > keep_beyond_px;
+    if (!deep && (c.x < 0 || c.y < 0 || c.x >= w || c.y >= h || inside(c) == 0)) continue;
     layer.points_2d[kept] = q;
     if (i < layer.point_pixels.size()) layer.point_pixels[kept] = layer.point_pixels[i];
     ++kept;
@@ -158,7 +207,8 @@ LayerResult trim_edges(const Frame& frame, LayerResult layer, const LayerParams&
   if (moved.empty()) return layer;  // nothing left: the offset is no fattening of these tops
   for (PolygonWithHoles& piece : moved) translate(piece, -edges.shift_m);
   layer.polygons = std::move(moved);
-  keep_points_inside(layer.polygons, layer);
+  // Half a pixel over the trim: the points of a straight edge stray about that far from its line.
+  keep_points_inside(layer.polygons, frame, (edges.inset_m + edges.shift_m.norm()) / pitch_m + 0.5, layer);
   layer.diagnostics.edges_moved_in_m = edges.inset_m;
   layer.diagnostics.edges_shifted_m = edges.shift_m.norm();
   return layer;

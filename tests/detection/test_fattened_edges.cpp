@@ -11,6 +11,7 @@
 #include "palletd/sim/sim.hpp"
 
 #include "edge_offset.hpp"
+#include "fattened_edges.hpp"
 #include "sim_block_layer.hpp"
 
 using namespace palletd;
@@ -180,4 +181,54 @@ TEST_CASE(
   INFO("mean shift away from the camera: one offset " << uniform_m << ", by facing " << facing_m);
   CHECK(uniform_m > 0.003);
   CHECK(std::abs(facing_m) < 0.5 * uniform_m);
+}
+
+TEST_CASE(
+    "carton top the simplified outline cuts off stays: only the fattened band along the points' edge goes",
+    "[fattened_edges]") {
+  const sim::SimulatedFrame stereo = block_layer("d435", 21);
+  const Detection raw = detect(stereo.frame, {kNominal}, untrimmed());
+  REQUIRE(raw.status == DetectionStatus::kOk);
+  REQUIRE(raw.layer.polygons.size() == 1);
+  const EdgeOffset edges = intensity_edge_offset(stereo.frame, raw.layer);
+  REQUIRE(edges.inset_m > 0.0);
+  // An outline that steps 30 mm inside the seen top along one side, as a simplification that
+  // takes a seam's notch for the side does.
+  LayerResult cut = raw.layer;
+  Ring2d& ring = cut.polygons.front().outer;
+  REQUIRE(ring.size() >= 4);
+  const Eigen::Vector2d a = ring[0], b = ring[1];
+  const Eigen::Vector2d along = (b - a).normalized();
+  const Eigen::Vector2d in(-along.y(), along.x());  // the outer ring runs counter-clockwise
+  const double cut_m = 0.030;
+  ring[0] += cut_m * in;
+  ring[1] += cut_m * in;
+  double area_m2 = 0.0;
+  for (const PolygonWithHoles& p : raw.layer.polygons) area_m2 += std::abs(signed_area(p.outer));
+  const double pitch_m = std::sqrt(area_m2 / static_cast<double>(raw.layer.points_2d.size()));
+  // The points along the middle of that side: within the fattened band, and deeper than the band
+  // but beyond the cut.
+  const auto count = [&](const LayerResult& layer, double from_m, double to_m) {
+    std::size_t n = 0;
+    for (const Eigen::Vector2f& q : layer.points_2d) {
+      const Eigen::Vector2d rel = q.cast<double>() - a;
+      const double t = rel.dot(along) / (b - a).norm(), depth_m = rel.dot(in);
+      if (t > 0.2 && t < 0.8 && depth_m > from_m && depth_m < to_m) ++n;
+    }
+    return n;
+  };
+  const double band_m = edges.inset_m - edges.shift_m.norm() - 0.5 * pitch_m;
+  const double deep_m = edges.inset_m + edges.shift_m.norm() + 2.0 * pitch_m;
+  INFO("inset " << edges.inset_m << " shift " << edges.shift_m.norm() << " pitch " << pitch_m);
+  REQUIRE(band_m > 0.0);
+  REQUIRE(deep_m < cut_m - pitch_m);
+  const std::size_t band = count(cut, -1.0, band_m), deep = count(cut, deep_m, cut_m);
+  REQUIRE(band > 10);
+  REQUIRE(deep > 10);
+  const LayerResult trimmed = trim_fattened_edges(stereo.frame, cut, DetectionParams{}.layer);
+  // The cut side's own intensity samples move the median offset a little.
+  CHECK(trimmed.diagnostics.edges_moved_in_m == Approx(edges.inset_m).margin(0.1 * pitch_m));
+  CHECK(count(trimmed, -1.0, band_m) == 0);
+  // Kept, but for those beside a hole in the points (a hole is an edge too).
+  CHECK(static_cast<double>(count(trimmed, deep_m, cut_m)) >= 0.95 * static_cast<double>(deep));
 }
