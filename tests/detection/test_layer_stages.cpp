@@ -213,3 +213,78 @@ TEST_CASE("noise per depth: a quantised sensor's band spans one of its depth ste
   for (const std::size_t i : on_top) kept += mask.mask.data[i] != 0 ? 1 : 0;
   CHECK(static_cast<double>(kept) / static_cast<double>(on_top.size()) > 0.98);
 }
+
+namespace {
+
+/// A 300 x 100 cloud seen straight down (camera +z is down, 5 mm pixels at 2 m): the left piece
+/// (columns 10-59, around x = -0.575 m) at depth `left_z_m`, the right piece (columns 240-289,
+/// around x = 0.575 m) at `right_z_m`, rows 10-89, each tilted by `slope` along x (depth grows
+/// with x); their pixels in `mask`.
+OrganizedCloud two_pieces(double left_z_m, double right_z_m, double slope, cv::Mat& mask) {
+  OrganizedCloud cloud;
+  cloud.width = 300;
+  cloud.height = 100;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cloud.points.assign(300 * 100, Eigen::Vector3f(nan, nan, nan));
+  mask = cv::Mat(100, 300, CV_8U, cv::Scalar(0));
+  for (int v = 10; v < 90; ++v) {
+    for (int u = 10; u < 290; ++u) {
+      if (u >= 60 && u < 240) continue;
+      const double x = 0.005 * (u - 150), z = (u < 60 ? left_z_m : right_z_m) + slope * x;
+      cloud.points[static_cast<std::size_t>(v * 300 + u)] =
+          Eigen::Vector3d(x, 0.005 * (v - 50), z).cast<float>();
+      mask.at<std::uint8_t>(v, u) = 255;
+    }
+  }
+  return cloud;
+}
+
+/// The plane through two points of the x-z section (the cloud's pieces are flat in y) [camera].
+Plane plane_through_section(double x0, double z0, double x1, double z1) {
+  Plane p;
+  p.normal = Eigen::Vector3d(-(z1 - z0), 0.0, x1 - x0).normalized();
+  if (p.normal.z() > 0.0) p.normal = -p.normal;  // towards the camera
+  p.d = -p.normal.dot(Eigen::Vector3d(x0, 0.0, z0));
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("stage 3b: a plane laid across a deck and the floor beyond is refitted on the deck") {
+  // A deck 144 mm above the floor (the right piece), and the plane a search laid through both.
+  cv::Mat mask;
+  const OrganizedCloud cloud = two_pieces(2.0, 2.144, 0.0, mask);
+  const Plane across = plane_through_section(-0.575, 2.0, 0.575, 2.144);
+  const Eigen::Vector3d up(0.0, 0.0, -1.0);
+  PlaneParams params;
+  const std::optional<layer::PieceLevel> level = layer::highest_piece_level(mask, cloud, across, up, params);
+  REQUIRE(level);
+  CHECK(level->step_m == Approx(0.144).margin(0.001));
+  CHECK(level->plane.normal.dot(up) > std::cos(0.1 * M_PI / 180.0));
+  CHECK(std::abs(level->plane.signed_distance(Eigen::Vector3d(-0.6, 0.0, 2.0))) < 1e-6);   // on the deck
+  CHECK(std::abs(level->plane.signed_distance(Eigen::Vector3d(0.6, 0.0, 2.144))) > 0.14);  // the floor not
+  // One level: nothing to refit.
+  const OrganizedCloud flat = two_pieces(2.0, 2.0, 0.0, mask);
+  CHECK_FALSE(layer::highest_piece_level(mask, flat, plane_through_section(-0.5, 2.0, 0.5, 2.0), up, params));
+}
+
+TEST_CASE("stage 3b: pieces of one level under a calibration a few degrees off stay on the refitted plane") {
+  // The level tilted 4 degrees against the calibrated up: its pieces 1.15 m apart lie 80 mm
+  // apart along up, the step between two levels.
+  const double slope = std::tan(4.0 * M_PI / 180.0);
+  cv::Mat mask;
+  const OrganizedCloud cloud = two_pieces(2.0, 2.0, slope, mask);
+  const Plane level_plane = plane_through_section(-0.5, 2.0 - slope * 0.5, 0.5, 2.0 + slope * 0.5);
+  const Eigen::Vector3d up(0.0, 0.0, -1.0);
+  PlaneParams params;
+  const std::optional<layer::PieceLevel> refit =
+      layer::highest_piece_level(mask, cloud, level_plane, up, params);
+  REQUIRE(refit);
+  CHECK(refit->step_m > 0.07);
+  // The other piece lies on the plane refitted on the higher one: it stays in the layer.
+  CHECK(std::abs(refit->plane.normal.dot(level_plane.normal)) > std::cos(0.05 * M_PI / 180.0));
+  CHECK(std::abs(refit->plane.signed_distance(Eigen::Vector3d(0.6, 0.0, 2.0 + slope * 0.6))) < 1e-4);
+  // Tilted past detection.plane.max_base_tilt_deg, the piece is no level: no refit.
+  params.max_base_tilt_deg = 3.0;
+  CHECK_FALSE(layer::highest_piece_level(mask, cloud, level_plane, up, params));
+}

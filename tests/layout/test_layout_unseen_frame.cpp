@@ -2,7 +2,8 @@
 // range): boxes the cut leaves mostly seen are completed at their true poses and flagged
 // partly_unseen; the same cut with the surface seen lower beyond it completes nothing. Bundled
 // cell frames whose view ends across the load or sees a lower layer beside it: a sheet cut by the
-// image's edge, and levels of cartons that are no empty pallet's deck.
+// image's edge, levels of cartons that are no empty pallet's deck, and an empty pallet whose
+// plane the search laid across its deck and the floor far beyond.
 #include <cmath>
 #include <cstdlib>
 #include <string>
@@ -278,4 +279,23 @@ TEST_CASE("boxes whose seams show where they meet are cartons, never an empty pa
   CHECK(d.status != DetectionStatus::kEmpty);
   CHECK(d.interior_seams.seen_share() >= 0.5);
   CHECK_FALSE((d.status == DetectionStatus::kOk && !d.ambiguous));
+}
+
+// Frame 273 of `palletctl simulate --out B1 -n 300 --pattern all --profile all --scene all
+// --oversize-max 0.05 --corner-radius 3:8 --gap-max 20 --seed 91056`: an empty pallet 2.5 m from
+// a d435 tilted 23 degrees, calibrated, no region of interest. The plane search took a plane
+// tilted 2.5 degrees that meets the deck and, far off at the image's edge, the floor 144 mm
+// lower: 11.9 m2 of "layer", 141 boxes laid over the floor, flagged. Along the calibrated up
+// the two pieces are a level step apart; the plane refitted on the higher one is the deck's.
+TEST_CASE("an empty pallet whose plane the search laid across its deck and the far floor is empty") {
+  const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/flags/empty_deck_plane_to_far_floor_d435";
+  const Expected<Frame> frame = read_frame(stem);
+  REQUIRE(frame);
+  REQUIRE(frame->T_base_camera);
+  const Detection d = detect(*frame, {{0.315, 0.232, "315x232"}}, DetectionParams{});
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason, d.layer_area_m2);
+  CHECK(d.status == DetectionStatus::kEmpty);
+  CHECK(d.boxes.empty());
+  CHECK(d.layer.diagnostics.level_refit_step_m > 0.1);
+  CHECK(d.layer_area_m2 < 1.2);  // the deck of a 1200 x 800 pallet, not the floor
 }

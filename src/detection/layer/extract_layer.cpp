@@ -298,7 +298,7 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   // Stage 1: top plane.
   std::optional<Eigen::Vector3d> up_camera;  // the base's +z axis seen from the camera
   if (frame.T_base_camera) up_camera = frame.T_base_camera->linear().transpose() * Eigen::Vector3d::UnitZ();
-  const layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params, usable, up_camera);
+  layer::TopPlane top = layer::find_top_plane(cloud, K, plane_params, usable, up_camera);
   result.diagnostics.plane_candidates = top.candidates;
   result.diagnostics.t_plane_ms = ms_since(t_start);
   if (top.status != DetectionStatus::kOk) return fail(result, top.status, top.reason);
@@ -312,8 +312,19 @@ LayerResult extract_layer(const Frame& frame, const OrganizedCloud& cloud, const
   const layer::BandTable band(top.noise, layer_params.passthrough_tolerance_m);
   result.diagnostics.passthrough_tolerance_m = band.max_m();
 
-  // Stages 3-4: mask, border, components; the layer's points.
+  // Stages 3-4: mask, border, components; the layer's points. 3b: a plane laid across two
+  // levels, refitted on the highest piece.
   layer::LayerMask lm = layer::layer_mask(cloud, top.plane, band, plane_params);
+  if (up_camera) {
+    if (std::optional<layer::PieceLevel> level =
+            layer::highest_piece_level(lm.mask, cloud, top.plane, *up_camera, plane_params)) {
+      top.plane = level->plane;
+      result.plane_camera = top.plane;
+      result.T_camera_layer = layer::layer_frame(top.plane, level->centroid);
+      result.diagnostics.level_refit_step_m = level->step_m;
+      lm = layer::layer_mask(cloud, top.plane, band, plane_params);
+    }
+  }
   result.diagnostics.filled_dropouts = lm.filled_dropouts;
   result.diagnostics.touches_image_border = lm.touches_image_border;
   if (cv::countNonZero(lm.mask) == 0) {

@@ -130,6 +130,30 @@ LayerMask layer_mask(const OrganizedCloud& cloud, const Plane& plane, const Band
 /// Border pixels of a mask from the 8-neighbourhood (pixels outside the image count as off).
 cv::Mat border_of(const cv::Mat& mask);
 
+// ---- stage 3b: one level ---------------------------------------------------------------------
+
+/// Pieces of one level differ along the calibrated up by the calibration's error over their
+/// distance (1 degree over 1.5 m: 26 mm) and the sensor's noise; pieces further apart in height
+/// than this are no one level [m].
+constexpr double kMaxPieceSpread_m = 0.04;
+
+/// The plane refitted on the highest piece of the layer mask.
+struct PieceLevel {
+  Plane plane;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< of the piece's points, camera frame [m]
+  double step_m = 0.0;  ///< from the lowest piece's median height up to the highest's [m]
+};
+
+/// With the calibrated up (`up_camera`, camera frame): where the mask's pieces (8-connected, a
+/// few hundred points or more) lie at median heights along up more than kMaxPieceSpread_m apart,
+/// the plane was laid across two levels (seen at a slant far off, a deck and the floor beyond
+/// meet a plane tilted a few degrees): the plane through the highest piece, when that piece is
+/// level within max_base_tilt_deg. Otherwise nullopt. Pieces of one level lie on the highest
+/// one's plane too, whatever the calibration's error, and stay in its band.
+std::optional<PieceLevel> highest_piece_level(const cv::Mat& mask, const OrganizedCloud& cloud,
+                                              const Plane& plane, const Eigen::Vector3d& up_camera,
+                                              const PlaneParams& params);
+
 // ---- stage 4: components and holes -----------------------------------------------------------
 
 /// One ring's border pixels in chain order (the order findContours traced them, first visit).

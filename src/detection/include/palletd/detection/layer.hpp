@@ -77,6 +77,9 @@ struct LayerDiagnostics {
   double largest_cut_piece_m2 = 0.0;
   std::size_t plane_candidates = 0;    ///< large enough planes seen while looking for the top
   double plane_sigma_m = 0.0;          ///< robust sigma (1.4826 MAD) of the residuals near the plane [m]
+  /// How far the highest piece of the plane's first band stood above its lowest piece when the
+  /// plane was refitted on the highest (a plane laid across two levels; 0: not refitted) [m].
+  double level_refit_step_m = 0.0;
   double passthrough_tolerance_m = 0.0;  ///< widest |z| band used [m] (the band follows the depth)
   double d_max_m = 0.0;                ///< crust pruning length used [m]
   bool touches_image_border = false;
