@@ -90,6 +90,8 @@ const Table<LayoutParams>& layout_table() {
                                 Range::closed(0.0, 1000.0))),
       within(&L::refine, number("refine_max_position_sigma_px", &RefineParams::max_position_sigma_px,
                                 Range::closed(0.0, 100.0))),
+      within(&L::refine,
+             number("refine_max_yaw_sigma_deg", &RefineParams::max_yaw_sigma_deg, Range::closed(0.0, 45.0))),
       within(&L::completion,
              number("unseen_min_fraction", &CompletionParams::unseen_min_fraction, Range::closed(0.0, 1.0))),
       within(&L::completion, number("uncovered_flag_fraction", &CompletionParams::uncovered_flag_fraction,

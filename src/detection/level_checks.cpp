@@ -194,6 +194,20 @@ std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, cons
   return LevelVerdict{DetectionStatus::kOk, why};
 }
 
+std::optional<LevelVerdict> uncertain_turn(const LayoutResult& layout, const RefineParams& refine) {
+  if (!(refine.max_yaw_sigma_deg > 0.0)) return std::nullopt;
+  double widest_rad = 0.0;
+  for (const LayoutBox& b : layout.boxes) widest_rad = std::max(widest_rad, b.evidence.yaw_sigma_rad);
+  const double widest_deg = widest_rad * 180.0 / M_PI;
+  if (!(widest_deg > refine.max_yaw_sigma_deg)) return std::nullopt;
+  std::ostringstream s;
+  s.precision(2);
+  s << "the layer's turn is measured to " << widest_deg << " degrees (one sigma, over "
+    << refine.max_yaw_sigma_deg << ") at a pixel pitch of " << mm(layout.pixel_pitch_m)
+    << ": the sides seen are too few pixels long to turn the boxes surely";
+  return LevelVerdict{DetectionStatus::kOk, s.str()};
+}
+
 std::optional<LevelVerdict> turned_unseen_boxes(const LayoutResult& layout) {
   const auto seen = std::find_if(layout.boxes.begin(), layout.boxes.end(),
                                  [](const LayoutBox& b) { return !b.partly_unseen; });
@@ -407,6 +421,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (std::optional<LevelVerdict> crossed = seams_across_boxes(layout)) return crossed;
   if (std::optional<LevelVerdict> small = undersized_boxes(layout, formats, refine)) return small;
   if (std::optional<LevelVerdict> unsure = uncertain_positions(layout, refine)) return unsure;
+  if (std::optional<LevelVerdict> askew = uncertain_turn(layout, refine)) return askew;
   if (std::optional<LevelVerdict> turned = turned_unseen_boxes(layout)) return turned;
   if (std::optional<LevelVerdict> crowded = overlapping_boxes(layout, refine)) return crowded;
   return search_unfinished(layout);

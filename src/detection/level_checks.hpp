@@ -92,6 +92,10 @@ std::optional<LevelVerdict> overlapping_boxes(const LayoutResult& layout, const 
 /// (kOk); max_position_sigma_mm 0 = never.
 std::optional<LevelVerdict> uncertain_positions(const LayoutResult& layout, const RefineParams& refine);
 
+/// The layer's turn uncertain (one sigma; LayoutBox evidence yaw_sigma_rad) by more than
+/// refine.max_yaw_sigma_deg: flagged (kOk); 0 = never.
+std::optional<LevelVerdict> uncertain_turn(const LayoutResult& layout, const RefineParams& refine);
+
 /// Boxes completed where the depth ends (partly_unseen) whose yaw differs from the boxes seen
 /// whole by more than 5 degrees (modulo a quarter turn): the part seen cannot tell a turned
 /// carton from a box fitted askew to a few edges: flagged (kOk). Nothing without a box seen whole.
@@ -124,7 +128,7 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
 /// search was not ended by the clock (LayoutResult::clock_ran_out: then nothing showed that no box
 /// fits, and a faster machine might have); then those
 /// flags; else slip_sheet, pieces_cut_by_image, formats_undecided, mix_by_outline,
-/// seams_across_boxes, undersized_boxes, uncertain_positions, turned_unseen_boxes,
+/// seams_across_boxes, undersized_boxes, uncertain_positions, uncertain_turn, turned_unseen_boxes,
 /// overlapping_boxes (`refine`), search_unfinished. `above_known_deck`: the pallet's height and
 /// the calibration put the level above the pallet's deck (empty_level() found it no deck), so no
 /// floor seen below it makes it one: the level seen lowest may be a lower layer of cartons.

@@ -2,7 +2,7 @@
 // pitch, or no mixed pixels at edges: stereo, structured light): a layout that mixes formats, a
 // search that ended on its budget. Where the camera shows seams, the seams decide and neither flags
 // (unless the seams of a mix do not show where its boxes meet), and a seam across a box's top
-// flags; on every camera: boxes placed less surely than the limit,
+// flags; on every camera: boxes placed less surely than the limit, a layer turned less surely,
 // boxes measured shorter than their format, boxes that reach into each other, pieces of the layer
 // without boxes, boxes the depth sees through, boxes completed where the depth ends and turned.
 #include <catch2/catch.hpp>
@@ -130,6 +130,22 @@ TEST_CASE("a box placed less surely than the limit flags the layout, whatever th
   CHECK(uncertain_positions(layout, RefineParams{}));
   layout.boxes[1].evidence.position_sigma_m = 0.009;
   CHECK_FALSE(uncertain_positions(layout, position_limits(10.0, 1.0)));
+}
+
+TEST_CASE("a layer whose turn is measured less surely than the limit flags the layout", "[cell][flags]") {
+  LayoutResult layout = layout_seen(0.0175, 0.6, {1});
+  layout.boxes[0].evidence.yaw_sigma_rad = 1.6 * M_PI / 180.0;
+  const std::optional<LevelVerdict> v = uncertain_turn(layout, RefineParams{});
+  REQUIRE(v);
+  CHECK(v->status == DetectionStatus::kOk);
+  CHECK_THAT(v->message, Catch::Contains("measured to 1.6 degrees") && Catch::Contains("pitch of 18 mm"));
+  RefineParams never;
+  never.max_yaw_sigma_deg = 0.0;
+  CHECK_FALSE(uncertain_turn(layout, never));
+  layout.boxes[0].evidence.yaw_sigma_rad = 1.0 * M_PI / 180.0;
+  CHECK_FALSE(uncertain_turn(layout, RefineParams{}));
+  layout.boxes[0].evidence.yaw_sigma_rad = -1.0;  // not refined: nothing to judge
+  CHECK_FALSE(uncertain_turn(layout, RefineParams{}));
 }
 
 TEST_CASE("a box placed worse than two pixel pitches flags the layout, whatever the millimetre limit",

@@ -2,8 +2,9 @@
 // range): boxes the cut leaves mostly seen are completed at their true poses and flagged
 // partly_unseen; the same cut with the surface seen lower beyond it completes nothing. Bundled
 // cell frames whose view ends across the load or sees a lower layer beside it: a sheet cut by the
-// image's edge, levels of cartons that are no empty pallet's deck, and an empty pallet whose
-// plane the search laid across its deck and the floor far beyond.
+// image's edge, levels of cartons that are no empty pallet's deck, an empty pallet whose plane
+// the search laid across its deck and the floor far beyond, and one carton too few pixels long
+// to turn surely.
 #include <cmath>
 #include <cstdlib>
 #include <string>
@@ -298,4 +299,31 @@ TEST_CASE("an empty pallet whose plane the search laid across its deck and the f
   CHECK(d.boxes.empty());
   CHECK(d.layer.diagnostics.level_refit_step_m > 0.1);
   CHECK(d.layer_area_m2 < 1.2);  // the deck of a 1200 x 800 pallet, not the floor
+}
+
+// Frame 209 of the same B1: one 300 x 200 carton on a full level, seen by a 176 x 132 camera at
+// 17.5 mm per pixel (17 x 12 pixels). Its sides' slopes are measured to 2.4-5.7 degrees each; it
+// stood 3.7 mm off but turned 2.35 degrees, unflagged (a layout counts within 2 degrees).
+TEST_CASE("one carton too few pixels long to turn surely flags the layout") {
+  const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/flags/one_carton_turn_unsure_o3d303-small";
+  const Expected<Frame> frame = read_frame(stem);
+  REQUIRE(frame);
+  const std::vector<BoxFormat> formats = {{0.3, 0.2, "300x200"}};
+  const Detection d = detect(*frame, formats, DetectionParams{});
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
+  REQUIRE(d.status == DetectionStatus::kOk);
+  REQUIRE(d.boxes.size() == 1);
+  CHECK(d.ambiguous);
+  CHECK_THAT(d.ambiguity_reason, Catch::Contains("the layer's turn is measured to"));
+  // Unflagged without the limit, and turned past 2 degrees.
+  DetectionParams no_limit;
+  no_limit.layout.refine.max_yaw_sigma_deg = 0.0;
+  const Detection loose = detect(*frame, formats, no_limit);
+  CHECK_FALSE(loose.ambiguous);
+  const Expected<Truth> truth = read_truth(stem);
+  REQUIRE(truth);
+  REQUIRE(truth->boxes.size() == 1);
+  const double cos_turn =
+      std::abs(loose.boxes[0].long_axis.normalized().dot(truth->boxes[0].long_axis.normalized()));
+  CHECK(std::acos(std::min(1.0, cos_turn)) * 180.0 / M_PI > 2.0);
 }

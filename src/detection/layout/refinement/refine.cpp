@@ -68,6 +68,9 @@ void turn_boxes(const std::vector<ComponentFit>& fits, const std::vector<double>
     sum_s += w * std::sin(4 * cf.turn_rad);
   }
   const double layer_turn = std::atan2(sum_s, sum_c) / 4;
+  double w_layer = 0.0;  // the layer turn's inverse variance [rad^-2]
+  for (const ComponentFit& cf : fits)
+    if (cf.built) w_layer += cf.turn_weight;
   for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
     const auto ci = static_cast<std::size_t>(found.boxes[bi].component);
     if (ci >= fits.size() || !fits[ci].built || !std::isfinite(box_turn[bi])) continue;
@@ -76,6 +79,7 @@ void turn_boxes(const std::vector<ComponentFit>& fits, const std::vector<double>
     const double turn = layer_turn + delta * cf.turn_weight / (cf.turn_weight + w_prior);
     const double phi = std::remainder(turn - cf.frame.theta_rad, M_PI / 2) + box_turn[bi];
     if (std::abs(phi) < kMaxYawChange_rad) out.boxes[bi].yaw_rad += phi;
+    if (w_layer > 0.0) out.boxes[bi].evidence.yaw_sigma_rad = 1.0 / std::sqrt(w_layer);
   }
 }
 

@@ -132,6 +132,11 @@ struct RefineParams {
   /// coarse camera's layouts unflagged sets 1 (a box placed no better than one pitch is held by
   /// its prior and its neighbours, not by what the frame shows).
   double max_position_sigma_px = 0.0;
+  /// The layer's turn uncertain (one sigma, from the slopes of the sides the fit measured) by more
+  /// than this flags the layout [deg]; 0 = never. A layout counts within 2 degrees of the cartons'
+  /// turn: this limit holds it as max_position_sigma_mm holds 15 mm (two thirds). A single carton
+  /// 17 x 12 pixels on a coarse camera measures its turn to about 1.6 degrees.
+  double max_yaw_sigma_deg = 1.3;
 };
 
 /// What the outline leaves open (src/detection/layout/completion/, the uncovered flag).
@@ -258,6 +263,9 @@ struct BoxEvidence {
   double edge_seams = 1.0;      ///< share of the sides it shares with neighbours that show a seam
   bool shared_sides = false;    ///< it has a neighbour (else edge_seams is 1)
   double position_sigma_m = -1.0;  ///< standard deviation of the fitted centre, worse axis; -1 = not fitted
+  /// Standard deviation of the layer's turn that the box follows, from the slopes of every side
+  /// the fit measured (inverse-variance sum over the layer) [rad]; -1 = not fitted.
+  double yaw_sigma_rad = -1.0;
   double refine_shift_m = 0.0;     ///< how far the fit moved it from where the search put it [m]
   /// The joint fit placed it more than a quarter of its short side from where the search put it:
   /// the sides measured around it contradict the layout there, so it keeps the search's place,
