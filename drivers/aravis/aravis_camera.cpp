@@ -2,10 +2,12 @@
 // configuring the camera: aravis_camera_open.cpp.
 #include "aravis/aravis_camera.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <utility>
 
 #include <arv.h>
@@ -26,7 +28,13 @@ AravisCamera::AravisCamera(AravisOptions options)
   set_identity(std::move(id));
 }
 
-AravisCamera::~AravisCamera() { close(); }
+AravisCamera::~AravisCamera() {
+  close();
+  // A heartbeat thread that reported the control lost may still be inside that emission.
+  if (impl_->closed_device && impl_->control_lost)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  impl_->closed_device.reset();
+}
 
 Status AravisCamera::do_start() {
   ArvCamera* cam = impl_->camera.get();
@@ -86,9 +94,11 @@ void AravisCamera::do_close() {
     impl_->resent_base = resent_.load();
     impl_->stream.reset();
   }
-  if (impl_->camera && impl_->control_lost_handler != 0) {
-    g_signal_handler_disconnect(arv_camera_get_device(impl_->camera.get()), impl_->control_lost_handler);
+  if (impl_->camera) {
+    ArvDevice* device = arv_camera_get_device(impl_->camera.get());
+    if (impl_->control_lost_handler != 0) g_signal_handler_disconnect(device, impl_->control_lost_handler);
     impl_->control_lost_handler = 0;
+    impl_->closed_device.reset(ARV_DEVICE(g_object_ref(device)));  // released at the next open
   }
   impl_->camera.reset();
   impl_->unreachable = false;

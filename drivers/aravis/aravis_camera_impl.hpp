@@ -44,6 +44,11 @@ inline std::string str_or(const char* s, const char* fallback) { return s != nul
 struct AravisCamera::Impl {
   aravis::GPtr<ArvCamera> camera;
   aravis::GPtr<ArvStream> stream;
+  /// The device of the camera last closed, held to the next open (or the destructor): its
+  /// heartbeat thread emits "control-lost" holding a reference on it, and the last reference
+  /// dropped while that emission runs would finalize the device in that thread, which then joins
+  /// itself (GLib aborts the process).
+  aravis::GPtr<ArvDevice> closed_device;
   gulong control_lost_handler = 0;
   std::atomic<bool> control_lost{false};
   bool unreachable = false;  ///< a control-channel call timed out: do not talk to it on close

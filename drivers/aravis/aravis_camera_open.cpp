@@ -66,6 +66,9 @@ double distance_unit_m(const std::string& unit) {
 /// Connects, checks and publishes the camera's identity, watches its control channel, then
 /// configures the camera and reads how it encodes depth and its intrinsics.
 Status AravisCamera::do_open() {
+  // The device closed last is finalized here, in this thread, long after any emission of its
+  // heartbeat thread: it leaves the camera's control before a new device asks for it.
+  impl_->closed_device.reset();
   if (Status st = connect_camera(); !st) return st;
   // Identity: as the camera reports it, checked against the configuration, then published.
   ArvCamera* cam = impl_->camera.get();

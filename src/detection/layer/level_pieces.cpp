@@ -11,7 +11,8 @@
 namespace palletd::layer {
 namespace {
 
-/// Pixels sampled per piece: every kStride_px-th in both directions.
+/// The mask is read at every kStride_px-th pixel in both directions (pieces connected there, their
+/// points sampled there).
 constexpr int kStride_px = 2;
 /// A piece counts with at least this many sampled points (about 0.05 m2 at 2.5 m on VGA).
 constexpr std::size_t kMinPiecePoints = 200;
@@ -24,13 +25,17 @@ struct Piece {
 
 std::vector<Piece> pieces_of(const cv::Mat& mask, const OrganizedCloud& cloud, const Eigen::Vector3d& up,
                              const PlaneParams& params) {
+  cv::Mat1b sampled((mask.rows + kStride_px - 1) / kStride_px, (mask.cols + kStride_px - 1) / kStride_px);
+  for (int r = 0; r < sampled.rows; ++r)
+    for (int c = 0; c < sampled.cols; ++c)
+      sampled(r, c) = mask.at<std::uint8_t>(kStride_px * r, kStride_px * c);
   cv::Mat labels;
-  const int n = cv::connectedComponents(mask, labels, 8, CV_32S);
+  const int n = cv::connectedComponents(sampled, labels, 8, CV_32S);
   std::vector<Piece> pieces(static_cast<std::size_t>(std::max(n, 1)));
-  for (int v = 0; v < mask.rows; v += kStride_px) {
-    for (int u = 0; u < mask.cols; u += kStride_px) {
-      const int label = labels.at<std::int32_t>(v, u);
-      const Eigen::Vector3f& p = cloud.at(u, v);
+  for (int r = 0; r < sampled.rows; ++r) {
+    for (int c = 0; c < sampled.cols; ++c) {
+      const int label = labels.at<std::int32_t>(r, c);
+      const Eigen::Vector3f& p = cloud.at(kStride_px * c, kStride_px * r);
       if (label <= 0 || !usable(p, params)) continue;
       pieces[static_cast<std::size_t>(label)].points.push_back(p.cast<double>());
     }
