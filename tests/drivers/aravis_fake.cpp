@@ -59,7 +59,7 @@ std::string write_genicam_xml(const TempDir& dir) {
   const auto port = xml.find("<Port Name=\"Device\"");
   REQUIRE(port != std::string::npos);
   xml.insert(port, features);
-  const std::string path = (dir.path() / "fake-3d.xml").string();
+  std::string path = (dir.path() / "fake-3d.xml").string();
   std::ofstream(path) << xml;
   return path;
 }

@@ -26,9 +26,10 @@ struct Piece {
 std::vector<Piece> pieces_of(const cv::Mat& mask, const OrganizedCloud& cloud, const Eigen::Vector3d& up,
                              const PlaneParams& params) {
   cv::Mat1b sampled((mask.rows + kStride_px - 1) / kStride_px, (mask.cols + kStride_px - 1) / kStride_px);
-  for (int r = 0; r < sampled.rows; ++r)
+  for (int r = 0; r < sampled.rows; ++r) {
     for (int c = 0; c < sampled.cols; ++c)
       sampled(r, c) = mask.at<std::uint8_t>(kStride_px * r, kStride_px * c);
+  }
   cv::Mat labels;
   const int n = cv::connectedComponents(sampled, labels, 8, CV_32S);
   std::vector<Piece> pieces(static_cast<std::size_t>(std::max(n, 1)));
