@@ -187,7 +187,9 @@ TEST_CASE(
     "carton top the simplified outline cuts off stays: only the fattened band along the points' edge goes",
     "[fattened_edges]") {
   const sim::SimulatedFrame stereo = block_layer("d435", 21);
-  const Detection raw = detect(stereo.frame, {kNominal}, untrimmed());
+  DetectionParams params = untrimmed();
+  params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+  const Detection raw = detect(stereo.frame, {kNominal}, params);
   REQUIRE(raw.status == DetectionStatus::kOk);
   REQUIRE(raw.layer.polygons.size() == 1);
   const EdgeOffset edges = intensity_edge_offset(stereo.frame, raw.layer);

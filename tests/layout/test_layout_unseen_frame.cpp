@@ -293,7 +293,9 @@ TEST_CASE("an empty pallet whose plane the search laid across its deck and the f
   const Expected<Frame> frame = read_frame(stem);
   REQUIRE(frame);
   REQUIRE(frame->T_base_camera);
-  const Detection d = detect(*frame, {{0.315, 0.232, "315x232"}}, DetectionParams{});
+  DetectionParams params;
+  params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+  const Detection d = detect(*frame, {{0.315, 0.232, "315x232"}}, params);
   CAPTURE(to_string(d.status), d.message, d.ambiguity_reason, d.layer_area_m2);
   CHECK(d.status == DetectionStatus::kEmpty);
   CHECK(d.boxes.empty());
@@ -309,14 +311,16 @@ TEST_CASE("one carton too few pixels long to turn surely flags the layout") {
   const Expected<Frame> frame = read_frame(stem);
   REQUIRE(frame);
   const std::vector<BoxFormat> formats = {{0.3, 0.2, "300x200"}};
-  const Detection d = detect(*frame, formats, DetectionParams{});
+  DetectionParams params;
+  params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+  const Detection d = detect(*frame, formats, params);
   CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
   REQUIRE(d.status == DetectionStatus::kOk);
   REQUIRE(d.boxes.size() == 1);
   CHECK(d.ambiguous);
   CHECK_THAT(d.ambiguity_reason, Catch::Contains("the layer's turn is measured to"));
   // Unflagged without the limit, and turned past 2 degrees.
-  DetectionParams no_limit;
+  DetectionParams no_limit = params;
   no_limit.layout.refine.max_yaw_sigma_deg = 0.0;
   const Detection loose = detect(*frame, formats, no_limit);
   CHECK_FALSE(loose.ambiguous);
