@@ -61,16 +61,15 @@ std::vector<std::vector<std::size_t>> boxes_per_component(const LayoutResult& fo
 void turn_boxes(const std::vector<ComponentFit>& fits, const std::vector<double>& box_turn, double w_prior,
                 const LayoutResult& found, LayoutResult& out) {
   double sum_c = 0, sum_s = 0;
+  double w_layer = 0.0;  // the layer turn's inverse variance [rad^-2]
   for (const ComponentFit& cf : fits) {
     if (!cf.built) continue;
     const double w = cf.turn_weight + 1e-9;
     sum_c += w * std::cos(4 * cf.turn_rad);
     sum_s += w * std::sin(4 * cf.turn_rad);
+    w_layer += cf.turn_weight;
   }
   const double layer_turn = std::atan2(sum_s, sum_c) / 4;
-  double w_layer = 0.0;  // the layer turn's inverse variance [rad^-2]
-  for (const ComponentFit& cf : fits)
-    if (cf.built) w_layer += cf.turn_weight;
   for (std::size_t bi = 0; bi < out.boxes.size(); ++bi) {
     const auto ci = static_cast<std::size_t>(found.boxes[bi].component);
     if (ci >= fits.size() || !fits[ci].built || !std::isfinite(box_turn[bi])) continue;
