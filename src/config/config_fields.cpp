@@ -108,6 +108,7 @@ const Table<RecipeCheckParams>& recipe_check_table() {
       number("oversize_tolerance_mm", &RecipeCheckParams::oversize_tolerance_mm, Range::closed(0.0, 200.0)),
       number("oversize_pitches", &RecipeCheckParams::oversize_pitches, Range::closed(0.0, 10.0)),
       integer("min_boxes_measured", &RecipeCheckParams::min_boxes_measured, 1, 1000),
+      integer("min_boxes_tape_across", &RecipeCheckParams::min_boxes_tape_across, 0, 1000),
   };
   return t;
 }

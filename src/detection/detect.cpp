@@ -127,12 +127,14 @@ Detection boxes_of_layout(const Frame& frame, const std::vector<BoxFormat>& form
   // Stage 8a: the cartons measured against the recipe; a layer of other cartons has no layout.
   out.recipe_check = check_recipe(out.boxes, formats, params.recipe_check, layout.pixel_pitch_m,
                                   params.layout.refine.max_oversize);
-  if (!out.recipe_check.agrees && !out.recipe_check.some_agree) {
+  // Tape across boxes whose sizes agree, on a layout already in doubt: the arrangement is in doubt.
+  if (!out.recipe_check.agrees && !out.recipe_check.some_agree &&
+      !(out.recipe_check.tape_only && out.ambiguous)) {
     out.boxes.clear();
     std::string reason = out.recipe_check.reason;
     return end(std::move(out), DetectionStatus::kRecipeMismatch, std::move(reason));
   }
-  if (!out.recipe_check.agrees) {  // some formats fit, others not: a wrong choice of format
+  if (!out.recipe_check.agrees) {  // some formats fit, others not, or tape against a doubtful layout
     out.ambiguous = true;
     out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + out.recipe_check.reason;
     out.ambiguity_kinds.push_back(AmbiguityKind::kLevelCheck);

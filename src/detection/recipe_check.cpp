@@ -33,13 +33,32 @@ bool within(double measured_m, double nominal_m, const RecipeCheckParams& p, dou
   return measured_m >= nominal_m - under_m && measured_m <= nominal_m * (1.0 + max_oversize) + over_m;
 }
 
-std::string describe(const FormatCheck& f) {
+std::string describe(const FormatCheck& f, bool taped_across) {
   auto mm = [](double m) { return m > 0.0 ? std::to_string(static_cast<int>(std::lround(1e3 * m))) : std::string("?"); };
   const bool by_rows = f.measured_long_m <= 0.0 && f.measured_short_m <= 0.0;
   const double l = f.measured_long_m > 0.0 ? f.measured_long_m : f.run_long_m;
   const double s = f.measured_short_m > 0.0 ? f.measured_short_m : f.run_short_m;
-  return "the boxes of format " + std::to_string(f.format) + " (" + mm(f.nominal_long_m) + " x " +
-         mm(f.nominal_short_m) + " mm) measure " + (by_rows ? "at most " : "") + mm(l) + " x " + mm(s) + " mm";
+  std::string out = "the boxes of format " + std::to_string(f.format) + " (" + mm(f.nominal_long_m) + " x " +
+                    mm(f.nominal_short_m) + " mm) measure " + (by_rows ? "at most " : "") + mm(l) + " x " +
+                    mm(s) + " mm";
+  if (taped_across) {
+    out +=
+        ", and " + std::to_string(f.boxes_tape_across) +
+        " of them carry tape across their middle, none along it (a carton is taped lengthwise: each is part "
+        "of a carton laid the other way)";
+  }
+  return out;
+}
+
+/// Whether the recipe holds the carton that two boxes of `half` make side by side (the tape of
+/// such a carton runs across both of them).
+bool holds_doubled(const std::vector<BoxFormat>& formats, const BoxFormat& half) {
+  constexpr double kSameSize_m = 0.025;  // a gap between two boxes and the cartons' oversize
+  const double a = 2.0 * half.short_m, b = half.long_m;
+  const double lo = std::min(a, b), hi = std::max(a, b);
+  return std::any_of(formats.begin(), formats.end(), [&](const BoxFormat& g) {
+    return std::abs(g.long_m - hi) <= kSameSize_m && std::abs(g.short_m - lo) <= kSameSize_m;
+  });
 }
 
 }  // namespace
@@ -51,14 +70,17 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
   std::vector<double> residuals;
   for (std::size_t f = 0; f < formats.size(); ++f) {
     std::vector<double> along_long, along_short, run_long, run_short;
+    FormatCheck c;
     for (const DetectedBox& b : boxes) {
       if (b.format != static_cast<int>(f) || b.partly_unseen) continue;
       if (b.measured_long_m > 0.0) along_long.push_back(b.measured_long_m);
       if (b.measured_short_m > 0.0) along_short.push_back(b.measured_short_m);
       if (b.run_long_m > 0.0) run_long.push_back(b.run_long_m);
       if (b.run_short_m > 0.0) run_short.push_back(b.run_short_m);
+      // Tape across a box whose four sides were all seen (both sizes measured) is no carton laid
+      // the other way: that box is a carton, and the band something else (a label, a print).
+      if (b.tape_across && (b.measured_short_m <= 0.0 || b.measured_long_m <= 0.0)) ++c.boxes_tape_across;
     }
-    FormatCheck c;
     c.format = static_cast<int>(f);
     c.nominal_long_m = formats[f].long_m;
     c.nominal_short_m = formats[f].short_m;
@@ -80,6 +102,14 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
                within(c.measured_short_m, c.nominal_short_m, params, pixel_pitch_m, max_oversize) &&
                not_under(c.run_long_m, c.nominal_long_m, params, pixel_pitch_m) &&
                not_under(c.run_short_m, c.nominal_short_m, params, pixel_pitch_m);
+    const bool sizes_agree = c.agrees;
+    const bool taped_across =
+        params.min_boxes_tape_across > 0 && c.boxes_tape_across >= params.min_boxes_tape_across;
+    if (taped_across) {
+      out.checked = true;
+      c.agrees = false;
+      if (holds_doubled(formats, formats[f])) out.some_agree = true;
+    }
     const bool measured = c.measured_long_m > 0.0 || c.measured_short_m > 0.0;
     if (c.agrees && measured) out.some_agree = true;
     // Boxes that measure as another format of the recipe: the layout chose the wrong format.
@@ -89,15 +119,18 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
         out.some_agree = true;
     }
     if (!c.agrees) {
+      out.tape_only = (out.agrees || out.tape_only) && sizes_agree;
       out.agrees = false;
-      out.reason += (out.reason.empty() ? "" : "; ") + describe(c);
+      out.reason += (out.reason.empty() ? "" : "; ") + describe(c, taped_across);
     }
     out.formats.push_back(c);
   }
   out.size_residual_m = median_of(residuals, 1);
   if (!out.agrees) {
     out.reason += out.some_agree ? ": boxes of a format the layer may not hold"
-                                 : ": the layer is not built of the recipe's cartons";
+                  : out.tape_only
+                      ? ": the cartons lie otherwise than these boxes (another arrangement or other cartons)"
+                      : ": the layer is not built of the recipe's cartons";
   }
   return out;
 }

@@ -65,6 +65,7 @@ Json recipe_check_json(const RecipeCheck& c) {
                        {"measured_mm", {mm(f.measured_long_m), mm(f.measured_short_m)}},
                        {"boxes_measured", {f.boxes_long, f.boxes_short}},
                        {"row_bound_mm", {mm(f.run_long_m), mm(f.run_short_m)}},
+                       {"boxes_tape_across", f.boxes_tape_across},
                        {"agrees", f.agrees}});
   }
   return {{"checked", c.checked},

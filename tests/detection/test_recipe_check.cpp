@@ -1,5 +1,6 @@
-// The recipe check (detection/recipe_check.hpp): the boxes' measured sides against the recipe's
-// formats, on made-up boxes and on a simulated layer detected with the right and a wrong recipe;
+// The recipe check (detection/recipe_check.hpp): the boxes' measured sides and their tape against
+// the recipe's formats, on made-up boxes and on simulated layers detected with the right and a
+// wrong recipe;
 // formats of one recipe whose cartons look alike (detection/look_alike_formats.hpp).
 #include <catch2/catch.hpp>
 
@@ -25,6 +26,23 @@ DetectedBox measured_box(int format, double long_m, double short_m) {
 
 const std::vector<BoxFormat> kFormats = {{0.400, 0.300, "400x300", 0.0}, {0.600, 0.400, "600x400", 0.0}};
 constexpr double kPitch_m = 0.003;
+
+/// Detection parameters whose clock never ends a search: the expansion budget does, as when idle.
+DetectionParams idle_params() {
+  DetectionParams params;
+  params.layout.search.time_budget_ms = 1e6;
+  return params;
+}
+
+/// A layout detected with `formats` that must come out ok and agree with them.
+Detection agreeing(const sim::SimulatedFrame& f, const std::vector<BoxFormat>& formats) {
+  Detection d = detect(f.frame, formats, idle_params());
+  INFO(d.message);
+  REQUIRE(d.status == DetectionStatus::kOk);
+  CHECK(d.recipe_check.checked);
+  CHECK(d.recipe_check.agrees);
+  return d;
+}
 
 }  // namespace
 
@@ -96,19 +114,80 @@ TEST_CASE("a format that fits beside one that does not is a doubtful layout, not
   CHECK(swapped.some_agree);
 }
 
+TEST_CASE("boxes taped across their middle are parts of cartons laid the other way", "[recipe_check]") {
+  auto taped_box = [](int format, double long_m, double short_m) {
+    DetectedBox b = measured_box(format, long_m, short_m);
+    b.tape_across = true;
+    return b;
+  };
+  const std::vector<BoxFormat> one = {{0.400, 0.300, "400x300", 0.0}};
+  const RecipeCheckParams params;
+  // Two boxes whose split side shows nothing, each with a band across: halves of 600 x 400
+  // cartons, which the recipe does not hold.
+  const RecipeCheck halves =
+      check_recipe({taped_box(0, 0.404, -1.0), taped_box(0, 0.405, -1.0), measured_box(0, 0.404, -1.0)}, one,
+                   params, kPitch_m, 0.06);
+  CHECK(halves.checked);
+  CHECK_FALSE(halves.agrees);
+  CHECK_FALSE(halves.some_agree);
+  CHECK(halves.tape_only);  // their measured long sides agree
+  CHECK(halves.formats[0].boxes_tape_across == 2);
+  CHECK(halves.reason.find("2 of them carry tape across their middle") != std::string::npos);
+  // One such box is no verdict (a print, a label); neither is a box whose four sides were seen.
+  CHECK(check_recipe({taped_box(0, 0.404, -1.0), measured_box(0, 0.404, -1.0)}, one, params, kPitch_m, 0.06)
+            .agrees);
+  CHECK(check_recipe({taped_box(0, 0.404, 0.301), taped_box(0, 0.405, 0.302)}, one, params, kPitch_m, 0.06)
+            .agrees);
+  RecipeCheckParams off = params;
+  off.min_boxes_tape_across = 0;
+  CHECK(
+      check_recipe({taped_box(0, 0.404, -1.0), taped_box(0, 0.405, -1.0)}, one, off, kPitch_m, 0.06).agrees);
+  // With 600 x 400 in the recipe the layout chose the wrong format: flagged, not another recipe.
+  const RecipeCheck wrong_format =
+      check_recipe({taped_box(0, 0.404, -1.0), taped_box(0, 0.405, -1.0)}, kFormats, params, kPitch_m, 0.06);
+  CHECK_FALSE(wrong_format.agrees);
+  CHECK(wrong_format.some_agree);
+  // Tape across boxes that also measure off: not the tape alone.
+  CHECK_FALSE(
+      check_recipe({taped_box(0, 0.380, -1.0), taped_box(0, 0.381, -1.0)}, one, params, kPitch_m, 0.06)
+          .tape_only);
+}
+
+TEST_CASE(
+    "a layer of taped cartons detected as halves of them answers recipe_mismatch and names the right recipe",
+    "[recipe_check]") {
+  const std::uint64_t seed = 91070;
+  const sim::SensorProfile profile = *sim::profile_by_name("helios2");
+  sim::ScenarioOptions options = testing::layer_options(sim::PatternFamily::kBlock, "600x400x300");
+  options.tape_probability = 1.0;  // every carton closed with tape along its middle
+  Expected<sim::Scene> scene = sim::make_scene(options, profile, seed);
+  REQUIRE(scene);
+  const sim::SimulatedFrame f = sim::render(*scene, profile, seed);
+  const std::vector<BoxFormat> right = {{0.600, 0.400, "600x400", 0.0}};
+  const std::vector<BoxFormat> half = {{0.400, 0.300, "400x300", 0.0}};  // two of them tile one carton
+  const DetectionParams params = idle_params();
+  for (const DetectedBox& b : agreeing(f, right).boxes) CHECK_FALSE(b.tape_across);
+
+  const Detection wrong = detect(f.frame, half, params);
+  INFO(wrong.message);
+  CHECK(wrong.status == DetectionStatus::kRecipeMismatch);
+  CHECK(wrong.boxes.empty());
+  REQUIRE_FALSE(wrong.recipe_check.formats.empty());
+  CHECK(wrong.recipe_check.formats[0].boxes_tape_across >= 2);
+  CHECK(wrong.message.find("tape across their middle") != std::string::npos);
+
+  DetectionWorkspace workspace;
+  CHECK(best_fitting_recipe(f.frame, {{2, half}, {1, right}}, params, workspace) == 1);
+}
+
 TEST_CASE("a layer detected with a recipe of larger cartons answers recipe_mismatch and names the right recipe",
           "[recipe_check]") {
   const std::uint64_t seed = 733;
   const sim::SimulatedFrame f = sim::render(testing::block_layer_scene(seed), *sim::profile_by_name("helios2"), seed);
   const std::vector<BoxFormat> right = {{0.400, 0.300, "400x300", 0.0}};
   const std::vector<BoxFormat> larger = {{0.425, 0.315, "425x315", 0.0}};
-  DetectionParams params;
-  params.layout.search.time_budget_ms = 60000.0;  // the expansion budget ends the search, as when idle
-  const Detection ok = detect(f.frame, right, params);
-  INFO(ok.message);
-  REQUIRE(ok.status == DetectionStatus::kOk);
-  CHECK(ok.recipe_check.checked);
-  CHECK(ok.recipe_check.agrees);
+  const DetectionParams params = idle_params();
+  const Detection ok = agreeing(f, right);
   for (const DetectedBox& b : ok.boxes) {
     if (b.measured_long_m > 0.0) CHECK(b.measured_long_m == Approx(0.4).margin(0.02));
   }
@@ -123,7 +202,8 @@ TEST_CASE("a layer detected with a recipe of larger cartons answers recipe_misma
   DetectionWorkspace workspace;
   // Cartons 50 mm smaller than the layer's fit no layout; a larger format is measured off. (A
   // format two of the layer's cartons make, 600 x 400 here, can tile the same outline: the sides
-  // measured cannot tell it, docs/benchmarks.md "Recipe check".)
+  // measured cannot tell it, and each carton's tape crosses such a box a quarter of its length
+  // from its middle, where tape_across does not look.)
   const std::vector<RecipeCandidate> candidates = {{7, {{0.350, 0.250, "350x250", 0.0}}}, {3, right}, {9, larger}};
   CHECK(best_fitting_recipe(f.frame, candidates, params, workspace) == 3);
   CHECK_FALSE(best_fitting_recipe(f.frame, {{9, larger}}, params, workspace).has_value());

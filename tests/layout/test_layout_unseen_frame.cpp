@@ -331,3 +331,29 @@ TEST_CASE("one carton too few pixels long to turn surely flags the layout") {
       std::abs(loose.boxes[0].long_axis.normalized().dot(truth->boxes[0].long_axis.normalized()));
   CHECK(std::acos(std::min(1.0, cos_turn)) * 180.0 / M_PI > 2.0);
 }
+
+// Frame 57 of `palletctl simulate --out B2 -n 300 --pattern all --profile all --scene isolated cell
+// stepped --oversize-max 0.05 --corner-radius 3:8 --gap-max 20 --fill 0.5:1.0 --removal all
+// --extra-format 400x300 600x400 --seed 91057` (its region of interest below): a pinwheel of
+// 315 x 232 in a cell, 6 mm per pixel on d435, recipe 315 x 232, 400 x 300 and 600 x 400. The
+// layout search is tied with another arrangement, and two of its 315 x 232 carry their cartons'
+// tape across their middles: on a layout already in doubt that says the arrangement is wrong, not
+// the recipe, whose format these boxes measure as. Flagged, with the tape in the reason; not
+// recipe_mismatch (on a layout not in doubt the same tape is: test_recipe_check.cpp).
+TEST_CASE("tape across boxes of a flagged layout whose sizes agree flags the layout and not the recipe") {
+  const std::string stem =
+      std::string(PALLETD_TEST_DATA_DIR) + "/flags/pinwheel_315x232_tied_taped_across_d435";
+  const Expected<Frame> frame = read_frame(stem);
+  REQUIRE(frame);
+  DetectionParams params = in_simulated_cell(0.844);
+  params.pallet.top_z_m = 0.144;
+  params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+  const std::vector<BoxFormat> formats = {
+      {0.315, 0.232, "315x232"}, {0.4, 0.3, "400x300"}, {0.6, 0.4, "600x400"}};
+  const Detection d = detect(*frame, formats, params);
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
+  CHECK(d.status == DetectionStatus::kOk);
+  CHECK(d.ambiguous);
+  CHECK(d.recipe_check.tape_only);
+  CHECK_THAT(d.ambiguity_reason, Catch::Contains("tape across their middle"));
+}

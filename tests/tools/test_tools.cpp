@@ -250,7 +250,7 @@ TEST_CASE(
   const std::string snippet = dir.file("snippet.yaml");
   write(snippet, roi.out);
   const Run with_snippet =
-      run("src/palletctl/palletctl", {"detect", stem, "--box", "400x300", "--config", snippet});
+      run("src/palletctl/palletctl", {"detect", stem, "--box", "600x400", "--config", snippet});
   INFO(with_snippet.err);
   CHECK(with_snippet.exit_code == 0);
   CHECK_THAT(with_snippet.out, Contains("\"status\":"));

@@ -139,6 +139,17 @@ void mark_block_doubt(const std::vector<BoxFormat>& formats, const SeamEvidence&
   }
 }
 
+/// Marks the boxes with a band of tape across their middle and none along it (tape_across).
+/// Near-square boxes are left out: which way their flaps close says little about their turn.
+void mark_tape_across(const SeamEvidence& seams, LayoutResult& result) {
+  constexpr double kMinAspect = 1.15;  // long over short side of a box whose tape tells its way round
+  if (seams.tops.empty()) return;
+  for (LayoutBox& b : result.boxes) {
+    if (b.long_m < kMinAspect * b.short_m) continue;
+    b.evidence.tape_across = layout_detail::taped(b, seams, true) && !layout_detail::taped(b, seams);
+  }
+}
+
 /// No layout without a layer: its status and reason.
 LayoutResult without_layer(const LayerResult& layer) {
   LayoutResult r;
@@ -195,6 +206,7 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
     mark_block_doubt(formats, seams, p, result);
   }
   result.interior_seams = measure_interior_seams(result.boxes, seams, layer.polygons);
+  mark_tape_across(seams, result);
   result.pixel_pitch_m = layout_detail::layer_pixel_pitch_m(frame.intrinsics, layer);
   double outline_m = 0.0;
   for (const PolygonWithHoles& polygon : layer.polygons) outline_m += layout_detail::rings_length_m(polygon);

@@ -227,7 +227,7 @@ double TapeEvidence::unexplained_band_m(const std::vector<FrameBox>& boxes) cons
   return longest;
 }
 
-bool taped(const Box2d& box, const SeamEvidence& seams) {
+bool taped(const Box2d& box, const SeamEvidence& seams, bool across) {
   if (seams.tops.empty()) return false;
   // A frame along the box: its long side along x, its centre at the origin.
   LayoutFrame frame;
@@ -238,7 +238,7 @@ bool taped(const Box2d& box, const SeamEvidence& seams) {
     return static_cast<int>(std::ceil(2.0 * (half_m + pad_m) / seams.cell_m));
   };
   const TapeEvidence tape(seams, frame, -hx - pad_m, -hy - pad_m, cells(hx), cells(hy));
-  return tape.taped_length_m({{-hx, -hy, hx, hy}, box.format, true}) > 0.0;
+  return tape.taped_length_m({{-hx, -hy, hx, hy}, box.format, !across}) > 0.0;
 }
 
 }  // namespace palletd::layout_detail

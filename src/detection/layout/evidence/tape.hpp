@@ -78,7 +78,8 @@ class TapeEvidence {
   mutable std::unordered_map<Placement, double, PlacementHash> taped_;  ///< taped_length_m() per placement
 };
 
-/// Whether a band runs along the middle of `box` (layer frame) in the tops' intensity.
-bool taped(const Box2d& box, const SeamEvidence& seams);
+/// Whether a band runs along the middle of `box` (layer frame) in the tops' intensity; with
+/// `across`, along its middle line across it (parallel to its short side).
+bool taped(const Box2d& box, const SeamEvidence& seams, bool across = false);
 
 }  // namespace palletd::layout_detail

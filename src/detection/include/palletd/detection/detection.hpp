@@ -114,6 +114,8 @@ struct DetectedBox {
   /// Upper bounds where its own sides were not both seen: its share of a row of boxes pressed
   /// together between two seen sides (gaps not seen count in) [m]; -1 where there is none.
   double run_long_m = -1.0, run_short_m = -1.0;
+  /// A band of tape runs across its middle and none along it (BoxEvidence::tape_across).
+  bool tape_across = false;
   Box2d in_layer;        ///< the same box in the layer frame
   std::optional<Eigen::Vector3d> base_position;  ///< [m] when T_base_camera is known
   std::optional<double> base_yaw_deg;            ///< [deg] (-180, 180]

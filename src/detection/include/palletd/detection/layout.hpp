@@ -288,6 +288,11 @@ struct BoxEvidence {
   /// sides: an upper bound, as gaps not seen count in [m]; -1 where there is no such row.
   double run_long_m = -1.0;
   double run_short_m = -1.0;
+  /// The tops' intensity shows a band of tape across its middle, along its short side, and none
+  /// along its long side. A carton's flaps close lengthwise, so the box is part of a carton laid
+  /// the other way: two boxes where one carton stands, or boxes of a format the layer is not
+  /// built of (recipe_check.hpp). Not looked for on near-square boxes.
+  bool tape_across = false;
 };
 
 /// One box of a layout: where it lies (layer frame) and how well the measurements support it.

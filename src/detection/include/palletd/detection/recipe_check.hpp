@@ -30,6 +30,10 @@ struct RecipeCheckParams {
   /// Boxes of a format with a side measured along an axis before that side is judged: one box's
   /// pair of sides can be misread (a label edge, a dent), the median of several is the carton.
   int min_boxes_measured = 2;
+  /// Boxes of a format with a band of tape across their middle and none along it
+  /// (DetectedBox::tape_across) that make the format disagree: such a box is part of a carton
+  /// laid the other way. 0 = tape not used.
+  int min_boxes_tape_across = 2;
 };
 
 /// One format of the recipe against what the frame shows of it.
@@ -40,11 +44,15 @@ struct FormatCheck {
   /// min_boxes_measured boxes showed both sides along that axis.
   double measured_long_m = -1.0, measured_short_m = -1.0;
   int boxes_long = 0, boxes_short = 0;  ///< boxes measured along each axis
+  /// Boxes with tape across their middle (tape_across), leaving out those measured on both axes.
+  int boxes_tape_across = 0;
   /// Where fewer boxes showed both sides: the median of the boxes' shares of rows pressed
   /// together (DetectedBox::run_long_m), an upper bound checked against the lower tolerance only
   /// [m]; -1 = not used.
   double run_long_m = -1.0, run_short_m = -1.0;
-  bool agrees = true;                   ///< both medians, where measured, within the tolerance
+  /// Both medians, where measured, within the tolerance, and fewer than min_boxes_tape_across
+  /// boxes with tape across.
+  bool agrees = true;
 };
 
 /// The verdict on the whole layer (Detection::recipe_check).
@@ -52,9 +60,14 @@ struct RecipeCheck {
   bool checked = false;  ///< at least one format had a side measured on enough boxes
   bool agrees = true;    ///< every measured format within the tolerance
   /// Some format measured and within the tolerance, or a disagreeing format's boxes measure as
-  /// another format of the recipe: the layout put boxes of a format the layer does not hold
-  /// (flagged), rather than the layer being of other cartons.
+  /// another format of the recipe (or, taped across, are half a carton of another recipe format):
+  /// the layout put boxes of a format the layer does not hold (flagged), rather than the layer
+  /// being of other cartons.
   bool some_agree = false;
+  /// Every format that disagrees does so by its boxes' tape alone (their measured sides agree):
+  /// the tape says the cartons lie otherwise, which on a layout already flagged may mean another
+  /// arrangement rather than other cartons (detect() then flags instead).
+  bool tape_only = false;
   std::vector<FormatCheck> formats;
   std::string reason;    ///< a sentence when !agrees: which format, measured against nominal
   /// Median over the formats' measured sides of their distance from the band cartons are built
