@@ -34,10 +34,16 @@ def fail(message):
     raise SystemExit("FAIL: " + message)
 
 
-def free_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def free_ports(count):
+    """Distinct loopback ports free now (each socket stays bound until all are picked)."""
+    sockets = [socket.socket(socket.AF_INET, socket.SOCK_STREAM) for _ in range(count)]
+    try:
+        for s in sockets:
+            s.bind(("127.0.0.1", 0))
+        return [s.getsockname()[1] for s in sockets]
+    finally:
+        for s in sockets:
+            s.close()
 
 
 def http_get(url, host=None, timeout=5):
@@ -95,6 +101,41 @@ def query(prometheus_port, expression):
     return float(result[0]["value"][1]) if result else None
 
 
+def start_prometheus(exe, config, work, processes, attempts=3):
+    """Starts Prometheus on a port picked just before; another one when that port was taken in
+    between (by another test's server: its /-/ready is no Prometheus's). Returns the port."""
+    for attempt in range(attempts):
+        port = free_ports(1)[0]
+        log = open(work / f"prometheus.{attempt}.log", "w")
+        process = subprocess.Popen(
+            [exe, f"--config.file={config}", f"--storage.tsdb.path={work / 'tsdb'}",
+             f"--web.listen-address=127.0.0.1:{port}", "--log.level=warn"],
+            stdout=log, stderr=subprocess.STDOUT)
+        processes.append(process)
+
+        def ready():
+            if process.poll() is not None:
+                raise ProcessLookupError(f"Prometheus exited with {process.returncode}")
+            return http_get(f"http://127.0.0.1:{port}/-/ready")[0] == 200
+
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            try:
+                if ready():
+                    return port
+            except urllib.error.HTTPError:
+                break  # another server answers on this port
+            except ProcessLookupError:
+                break  # the port was taken when Prometheus bound it
+            except (OSError, urllib.error.URLError):
+                pass
+            time.sleep(0.2)
+        process.terminate()
+        process.wait(timeout=20)
+        processes.remove(process)
+    fail(f"Prometheus did not come up on a free port in {attempts} attempts (logs in {work})")
+
+
 def exported_families(metrics_text):
     return {m.group(1) for m in re.finditer(r"^# TYPE (\w+) (\w+)$", metrics_text, re.M)}
 
@@ -127,7 +168,7 @@ def main():
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
     source_dir = pathlib.Path(__file__).resolve().parents[2]
-    modbus_port, web_port, metrics_port, prometheus_port = (free_port() for _ in range(4))
+    modbus_port, web_port, metrics_port = free_ports(3)
 
     processes = []
     try:
@@ -162,12 +203,7 @@ def main():
             "global:\n  scrape_interval: 1s\n  evaluation_interval: 1s\n"
             "scrape_configs:\n  - job_name: palletd\n    static_configs:\n"
             f"      - targets: ['127.0.0.1:{metrics_port}']\n        labels: {{cell: test}}\n")
-        prometheus_log = open(work / "prometheus.log", "w")
-        processes.append(subprocess.Popen(
-            [args.prometheus, f"--config.file={config}", f"--storage.tsdb.path={work / 'tsdb'}",
-             f"--web.listen-address=127.0.0.1:{prometheus_port}", "--log.level=warn"],
-            stdout=prometheus_log, stderr=subprocess.STDOUT))
-        wait_for("Prometheus ready", lambda: http_get(f"http://127.0.0.1:{prometheus_port}/-/ready")[0] == 200, 60)
+        prometheus_port = start_prometheus(args.prometheus, config, work, processes)
         wait_for("a first scrape of palletd_triggers_total",
                  lambda: query(prometheus_port, "palletd_triggers_total") is not None, 60)
         before = query(prometheus_port, "palletd_triggers_total")
