@@ -63,6 +63,10 @@ bool holds_doubled(const std::vector<BoxFormat>& formats, const BoxFormat& half)
 
 }  // namespace
 
+bool taped_across_unmeasured(const DetectedBox& box) {
+  return box.tape_across && (box.measured_short_m <= 0.0 || box.measured_long_m <= 0.0);
+}
+
 RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vector<BoxFormat>& formats,
                          const RecipeCheckParams& params, double pixel_pitch_m, double max_oversize) {
   RecipeCheck out;
@@ -77,9 +81,7 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
       if (b.measured_short_m > 0.0) along_short.push_back(b.measured_short_m);
       if (b.run_long_m > 0.0) run_long.push_back(b.run_long_m);
       if (b.run_short_m > 0.0) run_short.push_back(b.run_short_m);
-      // Tape across a box whose four sides were all seen (both sizes measured) is no carton laid
-      // the other way: that box is a carton, and the band something else (a label, a print).
-      if (b.tape_across && (b.measured_short_m <= 0.0 || b.measured_long_m <= 0.0)) ++c.boxes_tape_across;
+      if (taped_across_unmeasured(b)) ++c.boxes_tape_across;
     }
     c.format = static_cast<int>(f);
     c.nominal_long_m = formats[f].long_m;

@@ -13,6 +13,7 @@
 
 #include "palletd/detection/detection.hpp"
 #include "palletd/detection/layout.hpp"
+#include "palletd/detection/unknown_cartons.hpp"
 #include "palletd/frames/frame_io.hpp"
 
 using namespace palletd;
@@ -356,4 +357,32 @@ TEST_CASE("tape across boxes of a flagged layout whose sizes agree flags the lay
   CHECK(d.ambiguous);
   CHECK(d.recipe_check.tape_only);
   CHECK_THAT(d.ambiguity_reason, Catch::Contains("tape across their middle"));
+}
+
+// Frame 0 of `palletctl simulate --out um -n 24 --pattern mixed --profile all --gap-max 20
+// --oversize-max 0.03 --corner-radius 3:8 --seed 91076`: two 600 x 400 and four 400 x 300 on
+// o3d303, detected with a size range and no formats. The best-supported size was 400 x 300: each
+// 600 x 400 laid out as two of them, unflagged. Those halves carry their carton's tape across
+// their middles; the size whose boxes do not comes first, and with few seams seen it is flagged.
+TEST_CASE("a size whose boxes carry their cartons' tape across is not taken for the cartons' size") {
+  const std::string stem =
+      std::string(PALLETD_TEST_DATA_DIR) + "/flags/mixed_600x400_400x300_size_range_o3d303";
+  const Expected<Frame> frame = read_frame(stem);
+  REQUIRE(frame);
+  DetectionParams params;
+  params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+  const SizeRange range{0.2, 0.8, 0.15, 0.6};
+  for (const bool tape : {true, false}) {
+    params.recipe_check.min_boxes_tape_across = tape ? 2 : 0;
+    DetectionWorkspace workspace;
+    const Detection d = detect_unknown_cartons(*frame, range, params, workspace);
+    CAPTURE(tape, to_string(d.status), d.message, d.ambiguity_reason, d.boxes.size());
+    REQUIRE(d.status == DetectionStatus::kOk);
+    if (tape) {
+      CHECK(d.ambiguous);
+    } else {
+      CHECK_FALSE(d.ambiguous);  // the halves, unflagged: what the tape now prevents
+      CHECK(d.boxes.size() == 8);
+    }
+  }
 }

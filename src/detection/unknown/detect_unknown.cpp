@@ -13,6 +13,7 @@
 
 #include "palletd/core/statistics.hpp"
 #include "palletd/detection/confidence.hpp"
+#include "palletd/detection/recipe_check.hpp"
 #include "palletd/detection/unknown_cartons.hpp"
 
 #include "edge_offset.hpp"
@@ -38,8 +39,12 @@ struct Trial {
   BoxFormat measured;  ///< median measured sides; the candidate's own where none were measured
   double fit = 0.0;    ///< evidence() x agreement of the measured sides with the size tried
   SeamAgreement::Score seams;  ///< seams along the boxes' sides, none across (0 without a layout)
+  /// Boxes carrying their cartons' tape across their middle (taped_across_unmeasured()).
+  int taped_across = 0;
 
   [[nodiscard]] double evidence() const { return seams.product(); }
+  /// The tape says the size is half a carton laid the other way (`min_boxes`: 0 = not asked).
+  [[nodiscard]] bool half_carton(int min_boxes) const { return min_boxes > 0 && taped_across >= min_boxes; }
 };
 
 /// One layer of the frame and what the layout stage reads about it, laid out with every size tried.
@@ -75,6 +80,8 @@ Trial try_size(const SharedLayer& shared, const BoxFormat& size, const Detection
   }
   if (t.measured.short_m > t.measured.long_m) std::swap(t.measured.long_m, t.measured.short_m);
   t.seams = agreement.score(t.detection.boxes);
+  t.taped_across = static_cast<int>(
+      std::count_if(t.detection.boxes.begin(), t.detection.boxes.end(), taped_across_unmeasured));
   // A size that leaves part of the layer bare (cartons too large to fit where the others do) is
   // weighed by its coverage once more: the seams it explains cover less of the layer.
   t.fit = t.evidence() * t.detection.coverage * std::exp(-0.25 * z2);
@@ -114,7 +121,8 @@ std::string range_problem(const SizeRange& r) {
 
 /// Each candidate laid out, then the best one's halves and doubles (two cartons side by side look
 /// like one where no seam shows: such a tie is then seen, not decided by which sizes were
-/// proposed); sorted by fit, best first. `without_boxes` keeps an empty pallet or a slip sheet.
+/// proposed); sorted by fit, best first, behind every other a size whose boxes carry their
+/// cartons' tape across (half a carton). `without_boxes` keeps an empty pallet or a slip sheet.
 std::vector<Trial> try_sizes(const SharedLayer& shared, const std::vector<SizeCandidate>& candidates,
                              const SizeRange& range, const DetectionParams& params,
                              const SeamAgreement& agreement, std::optional<Detection>& without_boxes) {
@@ -125,8 +133,7 @@ std::vector<Trial> try_sizes(const SharedLayer& shared, const std::vector<SizeCa
       without_boxes = t.detection;
     if (t.evidence() > 0.0) trials.push_back(std::move(t));
   }
-  const auto by_fit = [](const Trial& a, const Trial& b) { return a.fit > b.fit; };
-  std::sort(trials.begin(), trials.end(), by_fit);
+  std::sort(trials.begin(), trials.end(), [](const Trial& a, const Trial& b) { return a.fit > b.fit; });
   if (trials.empty()) return trials;
   for (const BoxFormat& f : halves_and_doubles(trials.front().measured, range)) {
     const bool tried =
@@ -135,7 +142,11 @@ std::vector<Trial> try_sizes(const SharedLayer& shared, const std::vector<SizeCa
     Trial t = try_size(shared, f, params, agreement);
     if (t.evidence() > 0.0) trials.push_back(std::move(t));
   }
-  std::stable_sort(trials.begin(), trials.end(), by_fit);
+  const int min_taped = params.recipe_check.min_boxes_tape_across;
+  std::stable_sort(trials.begin(), trials.end(), [min_taped](const Trial& a, const Trial& b) {
+    const bool half_a = a.half_carton(min_taped), half_b = b.half_carton(min_taped);
+    return half_a != half_b ? half_b : a.fit > b.fit;
+  });
   return trials;
 }
 
@@ -149,9 +160,15 @@ bool finer_fits_as_well(const Trial& other, const Trial& best) {
 }
 
 /// Why the best size is in doubt, "" when it is not: the frame shows too few seams to tell one
-/// carton from two, or another size is supported nearly as well.
-std::string size_doubt(const std::vector<Trial>& trials, const UnknownCartonParams& unknown) {
+/// carton from two, its boxes carry their cartons' tape across (every size tried does), or
+/// another size is supported nearly as well (one whose boxes carry the tape across too: a layer
+/// may hold cartons of two sizes).
+std::string size_doubt(const std::vector<Trial>& trials, const UnknownCartonParams& unknown, int min_taped) {
   const Trial& best = trials.front();
+  if (best.half_carton(min_taped)) {
+    return "the cartons' tape runs across the middle of " + std::to_string(best.taped_across) + " boxes of " +
+           mm(best.measured) + ": each may be half a carton laid the other way";
+  }
   if (best.evidence() < unknown.min_evidence && best.detection.boxes.size() > 1)
     return "the seams between the cartons are not seen (evidence " +
            std::to_string(best.evidence()).substr(0, 4) + "): one carton cannot be told from two";
@@ -246,8 +263,9 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
   std::vector<Trial> trials = try_sizes(shared, candidates, range, trial_params, agreement, without_boxes);
   // A sheet over the layer shows no seams whatever the size: where some size called it a sheet
   // and no size finds seams, no boxes are reported.
-  const bool sheet_likely =
-      without_boxes && (trials.empty() || trials.front().evidence() < unknown.min_evidence);
+  const bool sheet_likely = without_boxes && std::none_of(trials.begin(), trials.end(), [&](const Trial& t) {
+                              return t.evidence() >= unknown.min_evidence;
+                            });
   if (trials.empty() || sheet_likely) {
     if (without_boxes) {
       without_boxes->formats_measured = true;
@@ -268,7 +286,7 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
   if (out.status != DetectionStatus::kOk || out.boxes.empty() ||
       out.layout_confidence < 0.8 * best.detection.layout_confidence)
     out = shared.lay_out(best.tried, final_params);
-  const std::string doubt = size_doubt(trials, unknown);
+  const std::string doubt = size_doubt(trials, unknown, params.recipe_check.min_boxes_tape_across);
   if (!doubt.empty()) flag_size_doubt(doubt, out);
   const std::string fattened =
       fattened_tops(intensity_edge_offset(frame, layer), frame.intrinsics, layer, unknown);

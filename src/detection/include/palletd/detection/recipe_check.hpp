@@ -79,6 +79,11 @@ struct RecipeCheck {
   std::optional<int> best_recipe;
 };
 
+/// Whether `box` counts as part of a carton laid the other way: tape across its middle
+/// (DetectedBox::tape_across) and not all four of its sides seen (a box measured on both axes is
+/// a carton; a band across it is then a label or a print).
+bool taped_across_unmeasured(const DetectedBox& box);
+
 /// Measured sides of the boxes against their formats. `pixel_pitch_m`: the layer's pixel pitch;
 /// `max_oversize`: the share cartons may run over their format (RefineParams::max_oversize).
 RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vector<BoxFormat>& formats,
