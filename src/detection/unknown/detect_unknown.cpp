@@ -262,10 +262,10 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
   const SeamAgreement agreement(layer, evidence.seams, unknown.outline_margin_m);
   std::vector<Trial> trials = try_sizes(shared, candidates, range, trial_params, agreement, without_boxes);
   // A sheet over the layer shows no seams whatever the size: where some size called it a sheet
-  // and no size finds seams, no boxes are reported.
-  const bool sheet_likely = without_boxes && std::none_of(trials.begin(), trials.end(), [&](const Trial& t) {
-                              return t.evidence() >= unknown.min_evidence;
-                            });
+  // and the size that fits best (tape or not) finds no seams, no boxes are reported.
+  const auto best_fit = std::max_element(trials.begin(), trials.end(),
+                                         [](const Trial& a, const Trial& b) { return a.fit < b.fit; });
+  const bool sheet_likely = without_boxes && (trials.empty() || best_fit->evidence() < unknown.min_evidence);
   if (trials.empty() || sheet_likely) {
     if (without_boxes) {
       without_boxes->formats_measured = true;
