@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "palletd/detection/detection.hpp"
+#include "palletd/detection/layout.hpp"
 
 namespace palletd {
 
@@ -48,17 +49,6 @@ std::string describe(const FormatCheck& f, bool taped_across) {
         "of a carton laid the other way)";
   }
   return out;
-}
-
-/// Whether the recipe holds the carton that two boxes of `half` make side by side (the tape of
-/// such a carton runs across both of them).
-bool holds_doubled(const std::vector<BoxFormat>& formats, const BoxFormat& half) {
-  constexpr double kSameSize_m = 0.025;  // a gap between two boxes and the cartons' oversize
-  const double a = 2.0 * half.short_m, b = half.long_m;
-  const double lo = std::min(a, b), hi = std::max(a, b);
-  return std::any_of(formats.begin(), formats.end(), [&](const BoxFormat& g) {
-    return std::abs(g.long_m - hi) <= kSameSize_m && std::abs(g.short_m - lo) <= kSameSize_m;
-  });
 }
 
 }  // namespace
@@ -110,7 +100,8 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
     if (taped_across) {
       out.checked = true;
       c.agrees = false;
-      if (holds_doubled(formats, formats[f])) out.some_agree = true;
+      // Half of a carton the recipe holds: the layout chose the wrong format.
+      if (doubled_format(formats, formats[f]) >= 0) out.some_agree = true;
     }
     const bool measured = c.measured_long_m > 0.0 || c.measured_short_m > 0.0;
     if (c.agrees && measured) out.some_agree = true;

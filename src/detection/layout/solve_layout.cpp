@@ -44,11 +44,6 @@ int format_of_size(const std::vector<BoxFormat>& formats, double long_m, double 
   return -1;
 }
 
-/// The format that two boxes of format `half` side by side make (along their short sides), or -1.
-int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half) {
-  return format_of_size(formats, 2.0 * half.short_m, half.long_m);
-}
-
 /// Marks boxes whose place another format could take by two (split_seam), or a pair that one box
 /// of another format could replace (join_seam), with the strongest seam across that box or pair:
 /// where the camera does not show narrow seams, nothing else tells the two apart; where it does,
@@ -159,6 +154,10 @@ LayoutResult without_layer(const LayerResult& layer) {
 }
 
 }  // namespace
+
+int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half) {
+  return format_of_size(formats, 2.0 * half.short_m, half.long_m);
+}
 
 LayerEvidence build_layer_evidence(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,
                                    const SeamParams& params) {

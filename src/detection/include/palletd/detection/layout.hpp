@@ -421,6 +421,10 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
                           const LayerEvidence& evidence, const std::vector<BoxFormat>& formats,
                           const LayoutParams& params, SearchMemory* memory = nullptr);
 
+/// The recipe format that two boxes of format `half` make side by side (along their short sides,
+/// within 12 mm), or -1.
+int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half);
+
 /// Area of the intersection of a polygon with holes and an axis-aligned rectangle [m^2] (exact).
 double clipped_area(const PolygonWithHoles& polygon, double x0, double y0, double x1, double y1);
 
