@@ -95,8 +95,7 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
                not_under(c.run_long_m, c.nominal_long_m, params, pixel_pitch_m) &&
                not_under(c.run_short_m, c.nominal_short_m, params, pixel_pitch_m);
     const bool sizes_agree = c.agrees;
-    const bool taped_across =
-        params.min_boxes_tape_across > 0 && c.boxes_tape_across >= params.min_boxes_tape_across;
+    const bool taped_across = params.taped_across(c.boxes_tape_across);
     if (taped_across) {
       out.checked = true;
       c.agrees = false;

@@ -43,8 +43,10 @@ struct Trial {
   int taped_across = 0;
 
   [[nodiscard]] double evidence() const { return seams.product(); }
-  /// The tape says the size is half a carton laid the other way (`min_boxes`: 0 = not asked).
-  [[nodiscard]] bool half_carton(int min_boxes) const { return min_boxes > 0 && taped_across >= min_boxes; }
+  /// The tape says the size is half a carton laid the other way.
+  [[nodiscard]] bool half_carton(const RecipeCheckParams& check) const {
+    return check.taped_across(taped_across);
+  }
 };
 
 /// One layer of the frame and what the layout stage reads about it, laid out with every size tried.
@@ -142,9 +144,9 @@ std::vector<Trial> try_sizes(const SharedLayer& shared, const std::vector<SizeCa
     Trial t = try_size(shared, f, params, agreement);
     if (t.evidence() > 0.0) trials.push_back(std::move(t));
   }
-  const int min_taped = params.recipe_check.min_boxes_tape_across;
-  std::stable_sort(trials.begin(), trials.end(), [min_taped](const Trial& a, const Trial& b) {
-    const bool half_a = a.half_carton(min_taped), half_b = b.half_carton(min_taped);
+  const RecipeCheckParams& check = params.recipe_check;
+  std::stable_sort(trials.begin(), trials.end(), [&check](const Trial& a, const Trial& b) {
+    const bool half_a = a.half_carton(check), half_b = b.half_carton(check);
     return half_a != half_b ? half_b : a.fit > b.fit;
   });
   return trials;
@@ -163,9 +165,10 @@ bool finer_fits_as_well(const Trial& other, const Trial& best) {
 /// carton from two, its boxes carry their cartons' tape across (every size tried does), or
 /// another size is supported nearly as well (one whose boxes carry the tape across too: a layer
 /// may hold cartons of two sizes).
-std::string size_doubt(const std::vector<Trial>& trials, const UnknownCartonParams& unknown, int min_taped) {
+std::string size_doubt(const std::vector<Trial>& trials, const UnknownCartonParams& unknown,
+                       const RecipeCheckParams& check) {
   const Trial& best = trials.front();
-  if (best.half_carton(min_taped)) {
+  if (best.half_carton(check)) {
     return "the cartons' tape runs across the middle of " + std::to_string(best.taped_across) + " boxes of " +
            mm(best.measured) + ": each may be half a carton laid the other way";
   }
@@ -286,7 +289,7 @@ Detection detect_unknown_cartons(const Frame& frame, const SizeRange& range, con
   if (out.status != DetectionStatus::kOk || out.boxes.empty() ||
       out.layout_confidence < 0.8 * best.detection.layout_confidence)
     out = shared.lay_out(best.tried, final_params);
-  const std::string doubt = size_doubt(trials, unknown, params.recipe_check.min_boxes_tape_across);
+  const std::string doubt = size_doubt(trials, unknown, params.recipe_check);
   if (!doubt.empty()) flag_size_doubt(doubt, out);
   const std::string fattened =
       fattened_tops(intensity_edge_offset(frame, layer), frame.intrinsics, layer, unknown);

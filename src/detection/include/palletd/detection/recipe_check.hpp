@@ -34,6 +34,12 @@ struct RecipeCheckParams {
   /// (DetectedBox::tape_across) that make the format disagree: such a box is part of a carton
   /// laid the other way. 0 = tape not used.
   int min_boxes_tape_across = 2;
+
+  /// Whether `boxes` of a format taped across (taped_across_unmeasured()) say the cartons lie
+  /// the other way.
+  [[nodiscard]] bool taped_across(int boxes) const {
+    return min_boxes_tape_across > 0 && boxes >= min_boxes_tape_across;
+  }
 };
 
 /// One format of the recipe against what the frame shows of it.
