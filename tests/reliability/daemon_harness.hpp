@@ -244,6 +244,22 @@ struct Daemon {
                  text.substr(text.size() > 3000 ? text.size() - 3000 : 0).c_str());
   }
   [[nodiscard]] std::string log_text() const { return log.empty() ? std::string() : read_text(log); }
+  /// "running", "exited with N" or "killed by signal N", without reaping the process (a later
+  /// alive() or wait_exit() still sees the exit).
+  [[nodiscard]] std::string state() const {
+    if (pid <= 0) return "not running";
+    siginfo_t info{};
+    if (::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) != 0) return "unknown";
+    if (info.si_pid == 0) return "running";
+    if (info.si_code == CLD_EXITED) return "exited with " + std::to_string(info.si_status);
+    return "killed by signal " + std::to_string(info.si_status);
+  }
+  /// The state and the log's last `bytes`: what a failure far from the daemon's start shows.
+  [[nodiscard]] std::string tail(std::size_t bytes = 3000) const {
+    const std::string text = log_text();
+    return "palletd " + state() + "; its log (last " + std::to_string(bytes) + " bytes):\n" +
+           text.substr(text.size() > bytes ? text.size() - bytes : 0);
+  }
   [[nodiscard]] std::size_t open_fds() const {
     std::size_t n = 0;
     std::error_code ec;

@@ -106,10 +106,15 @@ struct FakeCamera {
   }
 };
 
+/// The daemon of the running test case: a status read it does not answer shows its state and log
+/// as they are then (a connection reset: did it exit, or close the connection, and why).
+const Daemon* camera_test_daemon = nullptr;
+
 StatusRecord read_status(PlcClient& plc) {
   RegisterImage image{};
   const palletd::Status read = plc.read(kStatusStart, kStatusCount, image);
   INFO("status read: " << (read.ok() ? std::string("ok") : read.error()));
+  INFO((read.ok() || camera_test_daemon == nullptr ? std::string() : camera_test_daemon->tail()));
   REQUIRE(read.ok());
   return decode_status(image, WordOrder::kHighWordFirst);
 }
@@ -181,6 +186,10 @@ TEST_CASE("GigE camera vanishes or stalls or sends frames that do not fit: palle
   // call blocking for seconds (GVCP retries on a vanished camera) must not stop the pings.
   Daemon daemon({"--config", config.string()}, notify.path, dir.path / "palletd.log", {},
                 {"WATCHDOG_USEC=10000000"});
+  camera_test_daemon = &daemon;
+  struct ForgetDaemon {
+    ~ForgetDaemon() { camera_test_daemon = nullptr; }
+  } forget_daemon;
   {
     const bool ready = notify.wait_for("READY=1", scaled(15s));
     INFO(daemon.log_text());
