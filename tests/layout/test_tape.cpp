@@ -163,6 +163,34 @@ TEST_CASE("tape: a band the layout puts no carton's middle on is unexplained") {
   CHECK(plain.unexplained_band_m(across) == 0.0);
 }
 
+TEST_CASE("tape: a label beside a carton's middle is no band of a carton's tape") {
+  // Two 600 x 400 side by side; a shipping label (150 x 100 mm, lighter than the board) on the
+  // first, off its middle. With no carton's length given, its edges read as a band 120 mm long or
+  // more that no box explains; a band counts only when it runs half the shortest carton, and the
+  // label does not. A band of tape along the first carton's middle, which a layout of 400 x 300
+  // across the place does not explain, runs the carton's length and still counts.
+  const KnownLayout l = block(2, 1, 0.6, 0.4);
+  const std::vector<FrameBox> boxes = frame_boxes(l);
+  SeamEvidence seams = with_tops(l, {}, kBoard, 0.0, 20.f);
+  for (int iy = 0; iy < seams.height; ++iy) {
+    for (int ix = 0; ix < seams.width; ++ix) {
+      const Eigen::Vector2d p = seams.origin_m + seams.cell_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
+      if (p.x() < 0.2 || p.x() > 0.35 || p.y() < 0.25 || p.y() > 0.35) continue;
+      seams.tops[static_cast<std::size_t>(iy) * static_cast<std::size_t>(seams.width) +
+                 static_cast<std::size_t>(ix)] = 1.6f * kBoard;
+    }
+  }
+  const TapeEvidence labelled(seams, LayoutFrame{}, -0.1, -0.1, 480, 200);
+  CHECK(labelled.unexplained_band_m(boxes) >= 0.12);
+  CHECK(labelled.unexplained_band_m(boxes, 0.4) == 0.0);
+  const TapeEvidence taped(with_tops(l, {boxes.front()}, 0.7f * kBoard, 0.048, 20.f), LayoutFrame{}, -0.1,
+                           -0.1, 480, 200);
+  std::vector<FrameBox> across = boxes;  // the first carton's place as two 400 x 300 turned
+  across.front() = {Rect{0.0, 0.0, 0.3, 0.4}, 0, false};
+  across.insert(across.begin() + 1, FrameBox{Rect{0.3, 0.0, 0.6, 0.4}, 0, false});
+  CHECK(taped.unexplained_band_m(across, 0.4) > 0.4);
+}
+
 TEST_CASE("tape: a box's reading is kept for its exact place only") {
   // Layouts compared in pairs share most boxes, so each placement is read once. A box moved
   // across, or turned, is another placement: read where it now stands.

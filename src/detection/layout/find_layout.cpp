@@ -62,6 +62,7 @@ LayoutContext make_context(const std::vector<BoxFormat>& formats, const LayoutPa
   const bool have_seams = seams != nullptr && !seams->empty() && seams->strength > 0.0;
   ctx.judge.seams = have_seams ? seams : nullptr;
   ctx.judge.min_short_m = ctx.extremes.min_short_m;
+  ctx.judge.min_long_m = ctx.extremes.min_long_m;
   ctx.judge.merge_tol_m = line_merge_tol_m(params, ctx.extremes.min_short_m);
   ctx.judge.absent_cap_nats = kAbsentShare * SeamLikelihood::decisive_nats(ctx.extremes.min_short_m);
   const bool can_complete = surroundings != nullptr && !surroundings->empty() &&

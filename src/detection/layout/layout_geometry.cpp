@@ -309,6 +309,7 @@ FormatExtremes format_extremes(const std::vector<BoxFormat>& formats) {
     const double a = formats[f].long_m * formats[f].short_m;
     e.min_area_m2 = f == 0 ? a : std::min(e.min_area_m2, a);
     e.min_short_m = f == 0 ? formats[f].short_m : std::min(e.min_short_m, formats[f].short_m);
+    e.min_long_m = f == 0 ? formats[f].long_m : std::min(e.min_long_m, formats[f].long_m);
   }
   return e;
 }

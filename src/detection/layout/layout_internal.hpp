@@ -26,10 +26,11 @@ Rect bounds_of(const PolygonWithHoles& polygon);
 /// Length of the outer ring and the holes [m].
 double rings_length_m(const PolygonWithHoles& polygon);
 
-/// The smallest box area and the shortest box side of a recipe's formats.
+/// The smallest box area, the shortest box side and the shortest long side of a recipe's formats.
 struct FormatExtremes {
   double min_area_m2 = 0.0;
   double min_short_m = 0.0;
+  double min_long_m = 0.0;
 };
 FormatExtremes format_extremes(const std::vector<BoxFormat>& formats);
 

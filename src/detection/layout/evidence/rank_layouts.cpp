@@ -113,9 +113,9 @@ Ranking rank_by_likelihood(const std::vector<Candidate>& cands, const std::vecto
   }
   const double decisive = SeamLikelihood::decisive_nats(judge.min_short_m);
   // Tape decides among the candidates only where the winner explains every band the layer
-  // shows: the right layout may be none of them.
+  // shows as long as a carton's tape: the right layout may be none of them.
   if (seams_margin_nats < decisive && margin_nats >= decisive &&
-      lik.unexplained_band_m(cands[near[w]].boxes) > 0.0)
+      lik.unexplained_band_m(cands[near[w]].boxes, judge.min_long_m) > 0.0)
     margin_nats = seams_margin_nats;
   if (!seams_usable && margin_nats < decisive) return {};  // the tape alone did not decide either
   Ranking r;

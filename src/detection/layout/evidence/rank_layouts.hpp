@@ -49,6 +49,7 @@ class ComponentFrames {
 struct SeamJudge {
   const SeamEvidence* seams = nullptr;  ///< null when the frame has no usable seam evidence
   double min_short_m = 0.0;             ///< shortest box side of the recipe [m]
+  double min_long_m = 0.0;              ///< shortest long side of the recipe's formats [m]
   double merge_tol_m = 0.0;             ///< how far a seam may lie from a box side [m]
   double absent_cap_nats = 0.0;         ///< SeamLikelihood's cap on absent seams' evidence
 };

@@ -62,8 +62,9 @@ class SeamLikelihood {
   [[nodiscard]] double compare(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b,
                                bool with_tape = true) const;
   /// TapeEvidence::unexplained_band_m() of the boxes [m].
-  [[nodiscard]] double unexplained_band_m(const std::vector<FrameBox>& boxes) const {
-    return tape_.unexplained_band_m(boxes);
+  [[nodiscard]] double unexplained_band_m(const std::vector<FrameBox>& boxes,
+                                          double shortest_carton_m) const {
+    return tape_.unexplained_band_m(boxes, shortest_carton_m);
   }
   /// Evidence that decides [nats]: a clear seam along half of the shortest box side.
   [[nodiscard]] static double decisive_nats(double min_short_m);

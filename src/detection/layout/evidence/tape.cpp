@@ -31,9 +31,9 @@ constexpr double kNoiseK = 4.0;
 constexpr double kSameShare = 0.8;
 /// A reading needs this share of its rectangle seen on the tops.
 constexpr double kMinSeen = 0.5;
-/// A band the layer shows runs at least this long [m]; a box's middle line within kExplain_m of
-/// it, along at least half of it, explains it.
-constexpr double kMinRun_m = 0.12, kExplain_m = 0.035;
+/// A band the layer shows runs at least this long [m], and at least kMinRunShare of the shortest
+/// carton; a box's middle line within kExplain_m of it, along at least half of it, explains it.
+constexpr double kMinRun_m = 0.12, kMinRunShare = 0.5, kExplain_m = 0.035;
 /// How far from the box's middle line the band is looked for, and in steps of at least [m].
 constexpr double kShift_m = 0.024, kShiftStep_m = 0.004;
 /// Boxes of two layouts whose sides lie within this of each other are the same carton [m].
@@ -184,8 +184,9 @@ double TapeEvidence::band_piece(bool along_x, double c, double s0, double s1, do
   return band;
 }
 
-double TapeEvidence::unexplained_band_m(const std::vector<FrameBox>& boxes) const {
+double TapeEvidence::unexplained_band_m(const std::vector<FrameBox>& boxes, double shortest_carton_m) const {
   if (empty()) return 0.0;
+  const double min_run_m = std::max(kMinRun_m, kMinRunShare * shortest_carton_m);
   const double step = std::max(cell_, kShiftStep_m);
   double longest = 0.0;
   for (const bool along_x : {true, false}) {
@@ -217,7 +218,7 @@ double TapeEvidence::unexplained_band_m(const std::vector<FrameBox>& boxes) cons
           continue;
         }
         const double a1 = s_lo + k * kTapePiece_m, a0 = a1 - run * kTapePiece_m;
-        if (run * kTapePiece_m >= kMinRun_m - 1e-9 && !explained(c, a0, a1))
+        if (run * kTapePiece_m >= min_run_m - 1e-9 && !explained(c, a0, a1))
           longest = std::max(longest, a1 - a0);
         run = band != 0.0 && std::abs(band) >= kMinContrast * board ? 1 : 0;  // a band of the other sign
         sign = run > 0 ? band : 0.0;

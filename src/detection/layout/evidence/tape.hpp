@@ -39,8 +39,12 @@ class TapeEvidence {
   /// 20 mm) [m].
   [[nodiscard]] double only_m(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const;
   /// The longest band of tape the layer shows (along either axis of the frame) that runs along
-  /// no box's middle line [m]; 0 when every band is some box's.
-  [[nodiscard]] double unexplained_band_m(const std::vector<FrameBox>& boxes) const;
+  /// no box's middle line [m]; 0 when every band is some box's. A band counts when it runs
+  /// 120 mm and half of `shortest_carton_m` (the recipe's shortest long side) or more: a carton's
+  /// tape runs the whole length of its top, a shipping label (100 x 150 mm, A6) or a print
+  /// along a carton is shorter.
+  [[nodiscard]] double unexplained_band_m(const std::vector<FrameBox>& boxes,
+                                          double shortest_carton_m = 0.0) const;
   /// only_m(a, b) - only_m(b, a) [m].
   [[nodiscard]] double compare_m(const std::vector<FrameBox>& a, const std::vector<FrameBox>& b) const;
 
