@@ -36,4 +36,23 @@ std::optional<int> best_fitting_recipe(const Frame& frame, const std::vector<Rec
   return best;
 }
 
+void name_recipe_shown(const Frame& frame, const std::vector<RecipeCandidate>& candidates,
+                       const DetectionParams& params, DetectionWorkspace& workspace, Detection& detection) {
+  if (candidates.empty()) return;
+  if (detection.status == DetectionStatus::kRecipeMismatch) {
+    detection.recipe_check.best_recipe = best_fitting_recipe(frame, candidates, params, workspace);
+    return;
+  }
+  const bool layer_found =
+      detection.layer.status == DetectionStatus::kOk && !detection.layer.polygons.empty();
+  if (detection.status != DetectionStatus::kNoLayout || !layer_found) return;
+  const std::optional<int> shown = best_fitting_recipe(frame, candidates, params, workspace);
+  if (!shown) return;
+  detection.status = DetectionStatus::kRecipeMismatch;
+  detection.message = "the recipe's formats lay out no layer here (" + detection.message + ") and recipe " +
+                      std::to_string(*shown) +
+                      "'s lay it out with the sides measured: the layer holds other cartons";
+  detection.recipe_check.best_recipe = shown;
+}
+
 }  // namespace palletd

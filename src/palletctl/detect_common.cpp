@@ -89,8 +89,7 @@ Detection detect_with_setup(const Frame& frame, const DetectSetup& setup, const 
 
 void name_best_recipe(const Frame& frame, const DetectSetup& setup, const DetectionParams& params,
                       DetectionWorkspace& workspace, Detection& detection) {
-  if (detection.status != DetectionStatus::kRecipeMismatch || setup.other_recipes.empty()) return;
-  detection.recipe_check.best_recipe = best_fitting_recipe(frame, setup.other_recipes, params, workspace);
+  name_recipe_shown(frame, setup.other_recipes, params, workspace, detection);
 }
 
 void write_bytes(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes) {

@@ -39,7 +39,8 @@ DetectSetup make_detect_setup(const std::string& config_path, int recipe, const 
 Detection detect_with_setup(const Frame& frame, const DetectSetup& setup, const std::vector<BoxFormat>& formats,
                             const DetectionParams& params, DetectionWorkspace& workspace);
 
-/// With a recipe mismatch, sets detection.recipe_check.best_recipe from setup.other_recipes.
+/// name_recipe_shown() with setup.other_recipes: after a recipe mismatch or a layer the recipe
+/// cannot lay out, which other recipe the frame shows.
 void name_best_recipe(const Frame& frame, const DetectSetup& setup, const DetectionParams& params,
                       DetectionWorkspace& workspace, Detection& detection);
 

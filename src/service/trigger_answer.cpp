@@ -17,10 +17,10 @@ TriggerAnswer answer_trigger(const Config& cfg, const Recipe& recipe, const Fram
   const auto t0 = std::chrono::steady_clock::now();
   TriggerAnswer a;
   a.detection = detect_recipe(cfg, recipe, frame, workspace);
-  if (a.detection.status == DetectionStatus::kRecipeMismatch) {  // which recipe the frame shows
-    a.detection.recipe_check.best_recipe =
-        best_fitting_recipe(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace);
-  }
+  // Which recipe the frame shows, after a recipe mismatch or a layer the recipe cannot lay out.
+  if (a.detection.status == DetectionStatus::kRecipeMismatch ||
+      a.detection.status == DetectionStatus::kNoLayout)
+    name_recipe_shown(frame, recipe_candidates(cfg, recipe.number), cfg.detection, workspace, a.detection);
   const double elapsed_ms = ms_since(t0);
   a.record = to_result_record(a.detection, frame.T_base_camera.has_value());
   a.record.processing_ms = elapsed_ms;

@@ -209,6 +209,43 @@ TEST_CASE("a layer detected with a recipe of larger cartons answers recipe_misma
   CHECK_FALSE(best_fitting_recipe(f.frame, {{9, larger}}, params, workspace).has_value());
 }
 
+TEST_CASE("a layer the recipe cannot lay out answers recipe_mismatch when another recipe lays it out",
+          "[recipe_check]") {
+  const std::uint64_t seed = 733;
+  const sim::SimulatedFrame f =
+      sim::render(testing::block_layer_scene(seed), *sim::profile_by_name("helios2"), seed);
+  const std::vector<BoxFormat> right = {{0.400, 0.300, "400x300", 0.0}};
+  const std::vector<BoxFormat> far_larger = {{0.500, 0.350, "500x350", 0.0}};  // tiles too little of it
+  const DetectionParams params = idle_params();
+  const Detection failed = detect(f.frame, far_larger, params);
+  INFO(failed.message);
+  REQUIRE(failed.status == DetectionStatus::kNoLayout);
+
+  DetectionWorkspace workspace;
+  Detection named = failed;
+  name_recipe_shown(f.frame, {{7, {{0.350, 0.250, "350x250", 0.0}}}, {3, right}}, params, workspace, named);
+  CHECK(named.status == DetectionStatus::kRecipeMismatch);
+  CHECK(named.recipe_check.best_recipe == 3);
+  CHECK(named.boxes.empty());
+  CHECK(named.message.find("recipe 3") != std::string::npos);
+  // No other recipe lays it out: no_layout it stays, naming none.
+  Detection unnamed = failed;
+  name_recipe_shown(f.frame, {{9, far_larger}}, params, workspace, unnamed);
+  CHECK(unnamed.status == DetectionStatus::kNoLayout);
+  CHECK_FALSE(unnamed.recipe_check.best_recipe.has_value());
+  // A layout found, or no layer to lay out, is left as it is.
+  Detection ok = agreeing(f, right);
+  const std::size_t boxes = ok.boxes.size();
+  name_recipe_shown(f.frame, {{3, right}}, params, workspace, ok);
+  CHECK(ok.status == DetectionStatus::kOk);
+  CHECK(ok.boxes.size() == boxes);
+  Detection no_layer;
+  no_layer.status = DetectionStatus::kNoLayout;
+  no_layer.layer.status = DetectionStatus::kNoLayer;
+  name_recipe_shown(f.frame, {{3, right}}, params, workspace, no_layer);
+  CHECK(no_layer.status == DetectionStatus::kNoLayout);
+}
+
 TEST_CASE("formats whose cartons can take the same room on a layer are look-alikes", "[recipe_check]") {
   const std::vector<BoxFormat> formats = {{0.400, 0.300, "400x300", 0.0},
                                           {0.420, 0.320, "420x320", 0.0},

@@ -4,68 +4,21 @@
 #include <filesystem>
 #include <thread>
 
-#include <unistd.h>
-
 #include <catch2/catch.hpp>
+#include <unistd.h>
 
 #include "palletd/config/config.hpp"
 #include "palletd/frames/frame_io.hpp"
+#include "palletd/modbus/client.hpp"
 #include "palletd/modbus/register_map.hpp"
 #include "palletd/service/service.hpp"
-#include "palletd/modbus/client.hpp"
 
-namespace fs = std::filesystem;
+#include "service_fixtures.hpp"
+
 using namespace std::chrono_literals;
 using palletd::modbus::ErrorCode;
 using palletd::modbus::ResultStatus;
-
-namespace {
-
-// A temporary folder holding copies of bundled frames (named from tests/data, subfolders too).
-struct TempFrames {
-  fs::path dir;
-  explicit TempFrames(const std::vector<std::string>& names) {
-    dir = fs::temp_directory_path() / ("palletd-service-" + std::to_string(::getpid()) + "-" +
-                                       std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
-    fs::create_directories(dir);
-    for (const auto& name : names) {
-      for (const char* ext : {".depth.png", ".json", ".intensity.png"}) {
-        const fs::path src = fs::path(PALLETD_TEST_DATA_DIR) / (name + ext);
-        if (fs::exists(src)) fs::copy_file(src, dir / fs::path(name + ext).filename());
-      }
-    }
-  }
-  ~TempFrames() {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-};
-
-std::vector<std::string> bundled_stems(std::size_t n) {
-  auto stems = palletd::list_frame_stems(PALLETD_TEST_DATA_DIR);
-  REQUIRE(stems.ok());
-  std::vector<std::string> names;
-  for (const auto& s : *stems) {
-    if (names.size() == n) break;
-    names.push_back(fs::path(s).filename().string());
-  }
-  REQUIRE(names.size() == n);
-  return names;
-}
-
-palletd::Config demo_config(const fs::path& replay_dir) {
-  palletd::Config config = palletd::load_config(std::string(PALLETD_SOURCE_DIR) + "/config/demo.yaml");
-  config.camera.driver = "replay";
-  config.camera.replay.directory = replay_dir.string();
-  config.camera.replay.rate_hz = 0.0;
-  config.camera.frame_timeout_ms = 1500;
-  config.modbus.bind_address = "127.0.0.1";
-  config.modbus.port = 0;  // any free port
-  config.recording.enabled = false;
-  return config;
-}
-
-}  // namespace
+using namespace palletd::service_test;
 
 TEST_CASE("a trigger over Modbus is answered with the detection of the replayed frame") {
   const auto names = bundled_stems(1);
@@ -146,115 +99,6 @@ TEST_CASE("with a gripper the pick block over Modbus holds the detection's group
   }
   CHECK(rec.pickable_boxes == pickable);
   CHECK(pickable >= 1);
-  service.stop();
-}
-
-TEST_CASE("an unknown recipe fails the trigger with error code 5 and its number as detail") {
-  TempFrames frames(bundled_stems(1));
-  palletd::Service service(demo_config(frames.dir));
-  REQUIRE(service.start().ok());
-  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
-  REQUIRE(plc.connect().ok());
-  auto result = plc.trigger(999, 7, 10s);
-  REQUIRE(result.ok());
-  CHECK(result->result.record.status == ResultStatus::kFailed);
-  CHECK(result->status.error == ErrorCode::kUnknownRecipe);
-  CHECK(result->status.error_detail == 999);
-  CHECK((result->status.status_word & palletd::modbus::kStError) != 0);
-}
-
-// palletctl simulate --out s400 -n 60 --pattern block interlock brick pinwheel chimney --profile all
-// --format 400x300x250 --oversize-max 0.03 --corner-radius 3:8 --gap-max 20 --seed 90601, frame 17
-// (helios2): eight cartons of 400 x 300 whose sides the camera shows, measured 404 x 303 against
-// a recipe of 420 x 315.
-TEST_CASE("a layer of other cartons fails with detail 8 and names the configured recipe that fits") {
-  TempFrames frames({"recipe/block_400x300_smaller_than_420x315_helios2"});
-  palletd::Config config = demo_config(frames.dir);
-  config.formats.push_back(palletd::BoxFormat{0.420, 0.315, "420x315", 0.0});
-  // Two candidates to name (a detection each) and room for them under the sanitizers.
-  config.recipes.resize(2);
-  config.recipes.push_back({20, "420x315", {static_cast<int>(config.formats.size()) - 1}, std::nullopt});
-  config.pipeline.detection_timeout_ms = 120000.0;
-  // The search must end on its expansion budget, as on an idle machine, not on the 200 ms wall
-  // clock a sanitizer build runs ten times slower against: cut short, the layout it returns may
-  // measure no side, and the recipe check has nothing to judge.
-  config.detection.layout.search.time_budget_ms = 5000.0;
-  palletd::Service service(config);
-  REQUIRE(service.start().ok());
-  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
-  REQUIRE(plc.connect().ok());
-  auto result = plc.trigger(20, 8, 120s);
-  REQUIRE(result.ok());
-  const palletd::modbus::ResultRecord& rec = result->result.record;
-  CHECK(rec.status == ResultStatus::kFailed);
-  CHECK(rec.boxes.empty());
-  CHECK(result->status.error == ErrorCode::kDetectionFailed);
-  CHECK(result->status.error_detail == static_cast<std::uint16_t>(palletd::modbus::DetectionFailure::kRecipeMismatch));
-  // The recipe named lists the frame's 400 x 300 cartons.
-  const palletd::Recipe* named = nullptr;
-  for (const auto& r : config.recipes)
-    if (r.number == rec.best_recipe) named = &r;
-  REQUIRE(named != nullptr);
-  bool has_400x300 = false;
-  for (int f : named->formats)
-    has_400x300 = has_400x300 || config.formats[static_cast<std::size_t>(f)].name == "400x300";
-  CHECK(has_400x300);
-  // The right recipe on the same frame answers with boxes and no name.
-  auto right = plc.trigger(static_cast<std::uint16_t>(named->number), 9, 120s);
-  REQUIRE(right.ok());
-  CHECK(right->result.record.status == ResultStatus::kOk);
-  CHECK(right->result.record.best_recipe == 0);
-  service.stop();
-}
-
-TEST_CASE("a size-range recipe answers with format 0xFFFF and each box's measured size in 910 + 2 i") {
-  TempFrames frames({"12_block_300x200_holes_o3d303"});
-  palletd::Config config = demo_config(frames.dir);
-  palletd::Recipe unknown{90, "unknown cartons", {}, palletd::SizeRange{0.2, 0.8, 0.15, 0.6}};
-  config.recipes.push_back(unknown);
-  config.pipeline.detection_timeout_ms = 120000.0;  // room for the sanitizer builds
-  palletd::Service service(config);
-  REQUIRE(service.start().ok());
-  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
-  REQUIRE(plc.connect().ok());
-  auto result = plc.trigger(90, 11, 120s);
-  REQUIRE(result.ok());
-  REQUIRE(result->result.ids_agree());  // 200 = 530 = 540 = 902 = 974
-  const palletd::modbus::ResultRecord& rec = result->result.record;
-  REQUIRE(rec.status == ResultStatus::kOk);
-  CHECK(rec.formats_measured);
-  CHECK(rec.boxes.size() == 12);
-  CHECK_FALSE(rec.ambiguous);
-  for (const palletd::modbus::BoxRecord& b : rec.boxes) {
-    CHECK(b.format == 0xFFFF);
-    CHECK(b.long_m == Approx(0.300).margin(0.010));
-    CHECK(b.short_m == Approx(0.200).margin(0.010));
-  }
-  // The same frame with its recipe's formats: indices, the format's size, no measured flag.
-  auto known = plc.trigger(static_cast<std::uint16_t>(config.recipes.front().number), 12, 120s);
-  REQUIRE(known.ok());
-  CHECK_FALSE(known->result.record.formats_measured);
-  if (!known->result.record.boxes.empty()) CHECK(known->result.record.boxes.front().format != 0xFFFF);
-  service.stop();
-}
-
-TEST_CASE("a shadow configuration with a size-range recipe detects with the range as the live one does") {
-  TempFrames frames({"12_block_300x200_holes_o3d303"});
-  palletd::Config config = demo_config(frames.dir);
-  config.recipes.push_back({90, "unknown cartons", {}, palletd::SizeRange{0.2, 0.8, 0.15, 0.6}});
-  config.pipeline.detection_timeout_ms = 120000.0;  // room for the sanitizer builds
-  config.shadow = std::make_shared<palletd::Config>(config);
-  palletd::Service service(config);
-  REQUIRE(service.start().ok());
-  palletd::modbus::PlcClient plc("127.0.0.1", service.health().modbus_port, 1);
-  REQUIRE(plc.connect().ok());
-  REQUIRE(plc.trigger(90, 1, 120s).ok());
-  for (int i = 0; i < 12000 && service.health().shadow_runs + service.health().shadow_skipped < 1; ++i)
-    std::this_thread::sleep_for(10ms);
-  const palletd::ServiceHealth h = service.health();
-  CHECK(h.shadow_runs == 1);
-  INFO(h.last_shadow_difference);
-  CHECK(h.shadow_disagreements == 0);
   service.stop();
 }
 

@@ -24,4 +24,13 @@ struct RecipeCandidate {
 std::optional<int> best_fitting_recipe(const Frame& frame, const std::vector<RecipeCandidate>& candidates,
                                        const DetectionParams& params, DetectionWorkspace& workspace);
 
+/// Which of the other configured recipes (`candidates`) the frame shows, where its own recipe
+/// failed on it. After recipe_mismatch: best_fitting_recipe() into recipe_check.best_recipe.
+/// After no_layout on a layer found (the recipe's boxes tile none of it, or too little): where
+/// another recipe lays the layer out with its measured sides agreeing, the layer holds other
+/// cartons, and the detection becomes recipe_mismatch naming that recipe (still without boxes);
+/// where none does, it stays no_layout. Any other detection is left as it is.
+void name_recipe_shown(const Frame& frame, const std::vector<RecipeCandidate>& candidates,
+                       const DetectionParams& params, DetectionWorkspace& workspace, Detection& detection);
+
 }  // namespace palletd
