@@ -4,7 +4,7 @@
 // cell frames whose view ends across the load or sees a lower layer beside it: a sheet cut by the
 // image's edge, levels of cartons that are no empty pallet's deck, an empty pallet whose plane
 // the search laid across its deck and the floor far beyond, and one carton too few pixels long
-// to turn surely.
+// to turn surely; one carton whose tape alone tells it from two.
 #include <cmath>
 #include <cstdlib>
 #include <string>
@@ -385,4 +385,25 @@ TEST_CASE("a size whose boxes carry their cartons' tape across is not taken for 
       CHECK(d.boxes.size() == 8);
     }
   }
+}
+
+// Frame 100 of A1 (`palletctl simulate --out A1 -n 300 --pattern all --profile all --scene
+// isolated cell stepped --oversize-max 0.05 --corner-radius 3:8 --gap-max 20 --fill 0.5:1.0
+// --removal all --extra-format 400x300 600x400 --seed 91055`): one 600 x 400 carton, taped along
+// its middle, on a level of others (o3d303). With 400 x 300 in the recipe too, two of those fill
+// the same outline; a lone carton shows no seam anywhere, and the tape was not read without one,
+// so the layout was flagged. The tape along its middle decides for the carton.
+TEST_CASE("one carton with no seam in view: its tape tells it from two cartons of half its size") {
+  const std::string stem = std::string(PALLETD_TEST_DATA_DIR) + "/flags/one_carton_taped_600x400_o3d303";
+  const Expected<Frame> frame = read_frame(stem);
+  REQUIRE(frame);
+  DetectionParams params;
+  params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+  const std::vector<BoxFormat> formats = {{0.6, 0.4, "600x400"}, {0.4, 0.3, "400x300"}};
+  const Detection d = detect(*frame, formats, params);
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
+  REQUIRE(d.status == DetectionStatus::kOk);
+  CHECK_FALSE(d.ambiguous);
+  REQUIRE(d.boxes.size() == 1);
+  CHECK(d.boxes.front().format == 0);
 }

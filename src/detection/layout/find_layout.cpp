@@ -61,6 +61,7 @@ LayoutContext make_context(const std::vector<BoxFormat>& formats, const LayoutPa
   ctx.tie_margin_m2 = tie_margin_m2(params, formats);
   const bool have_seams = seams != nullptr && !seams->empty() && seams->strength > 0.0;
   ctx.judge.seams = have_seams ? seams : nullptr;
+  ctx.judge.tape = !have_seams && seams != nullptr && !seams->tops.empty() ? seams : nullptr;
   ctx.judge.min_short_m = ctx.extremes.min_short_m;
   ctx.judge.min_long_m = ctx.extremes.min_long_m;
   ctx.judge.merge_tol_m = line_merge_tol_m(params, ctx.extremes.min_short_m);

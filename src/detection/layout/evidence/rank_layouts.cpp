@@ -156,10 +156,12 @@ std::size_t ComponentFrames::add(const LayoutFrame& frame, PolygonWithHoles fram
 }
 
 SeamLikelihood* ComponentFrames::likelihood(std::size_t i, const SeamJudge& judge, double margin_m) {
-  if (judge.seams == nullptr) return nullptr;
+  const SeamEvidence* raster = judge.seams != nullptr ? judge.seams : judge.tape;
+  if (raster == nullptr) return nullptr;
   if (!likelihoods_[i]) {
-    likelihoods_[i] = std::make_unique<SeamLikelihood>(*judge.seams, frames_[i], polygons_[i],
-                                                       judge.merge_tol_m, margin_m, judge.absent_cap_nats);
+    likelihoods_[i] =
+        std::make_unique<SeamLikelihood>(*raster, frames_[i], polygons_[i], judge.merge_tol_m, margin_m,
+                                         judge.absent_cap_nats, judge.seams != nullptr);
   }
   return likelihoods_[i].get();
 }
@@ -190,7 +192,7 @@ std::vector<std::size_t> near_equal_candidates(const std::vector<Candidate>& sor
 Ranking rank_by_seams(const std::vector<Candidate>& cands, const std::vector<std::size_t>& near,
                       ComponentFrames& frames, const SeamJudge& judge, const LayoutParams& params) {
   if (near.size() < 2) return {near, false};
-  if (judge.seams == nullptr) return {near, true};
+  if (judge.seams == nullptr && judge.tape == nullptr) return {near, true};
   bool seams_invisible = false;
   Ranking r = rank_by_likelihood(cands, near, frames, judge, params, seams_invisible);
   if (!r.order.empty()) return r;

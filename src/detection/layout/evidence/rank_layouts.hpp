@@ -35,7 +35,8 @@ class ComponentFrames {
   /// The seam table of frame i; null without seams or when the table is empty.
   const SeamTable* table(std::size_t i, const SeamEvidence* seams);
   /// The seam likelihood of frame i (the seams and tape rastered into it once; calibrate() it
-  /// for the layouts at hand before each use); null without seams.
+  /// for the layouts at hand before each use); the tape alone where the judge has only
+  /// SeamJudge::tape; null without either.
   SeamLikelihood* likelihood(std::size_t i, const SeamJudge& judge, double margin_m);
 
  private:
@@ -48,6 +49,10 @@ class ComponentFrames {
 /// The seam evidence and the recipe figures the ranking phases share.
 struct SeamJudge {
   const SeamEvidence* seams = nullptr;  ///< null when the frame has no usable seam evidence
+  /// Where `seams` is null: the raster with the tops' intensity, whose seams show nothing (a
+  /// single carton, pressed cartons on a stereo camera). The tape along the cartons' flaps is read
+  /// from it (SeamLikelihood with no usable seams); null without intensity.
+  const SeamEvidence* tape = nullptr;
   double min_short_m = 0.0;             ///< shortest box side of the recipe [m]
   double min_long_m = 0.0;              ///< shortest long side of the recipe's formats [m]
   double merge_tol_m = 0.0;             ///< how far a seam may lie from a box side [m]

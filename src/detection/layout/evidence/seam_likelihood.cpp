@@ -42,8 +42,12 @@ double mad_sigma(const std::vector<double>& v, double med) {
 
 SeamLikelihood::SeamLikelihood(const SeamEvidence& seams, const LayoutFrame& frame,
                                const PolygonWithHoles& frame_polygon, double position_tol_m, double margin_m,
-                               double absent_cap_nats)
-    : polygon_(&frame_polygon), tol_(position_tol_m), margin_(margin_m), absent_cap_(absent_cap_nats) {
+                               double absent_cap_nats, bool read_seams)
+    : polygon_(&frame_polygon),
+      tol_(position_tol_m),
+      margin_(margin_m),
+      read_seams_(read_seams),
+      absent_cap_(absent_cap_nats) {
   if (seams.empty() || frame_polygon.outer.size() < 3) return;
   const Rect b = bounds_of(frame_polygon);
   cell_ = seams.cell_m;
@@ -59,6 +63,7 @@ SeamLikelihood::SeamLikelihood(const SeamEvidence& seams, const LayoutFrame& fra
   // The raw raster (no line filter) turned into the frame: the likelihood does its own
   // averaging along the predicted lines.
   tape_ = TapeEvidence(seams, frame, x0_, y0_, w_, h_);
+  if (!read_seams_) return;
   const cv::Mat dst = seams_in_frame(seams, frame, x0_, y0_, w_, h_);
   integral_into(dst, sat_);
 }
@@ -127,7 +132,7 @@ bool SeamLikelihood::calibrate(const std::vector<const std::vector<FrameBox>*>& 
   usable_ = false;
   measured_ = false;
   axis_seams_[0] = axis_seams_[1] = 0;
-  if (empty() || candidates.empty()) return false;
+  if (empty() || !read_seams_ || candidates.empty()) return false;
   std::vector<std::map<PieceKey, double>> all;
   for (const auto* c : candidates) all.push_back(pieces(*c));
   // Seam reference: pieces every candidate predicts.

@@ -31,9 +31,10 @@ class SeamLikelihood {
   /// `position_tol_m`: how far a measured seam may lie from a predicted box side [m].
   /// `absent_cap_nats`: cap of the summed evidence of seams that are predicted and absent
   /// (infinity: none). Set below decisive_nats, absent seams alone never decide: a gap can be
-  /// pressed shut, so a decision needs a seam that shows.
+  /// pressed shut, so a decision needs a seam that shows. Without `read_seams` only the tape is
+  /// read (a raster whose seams show nothing): calibrate() finds nothing to judge the seams by.
   SeamLikelihood(const SeamEvidence& seams, const LayoutFrame& frame, const PolygonWithHoles& frame_polygon,
-                 double position_tol_m, double margin_m, double absent_cap_nats);
+                 double position_tol_m, double margin_m, double absent_cap_nats, bool read_seams = true);
   [[nodiscard]] bool empty() const { return w_ == 0; }
 
   /// Calibrates the two contrast distributions from the candidates (all of the same frame):
@@ -108,6 +109,7 @@ class SeamLikelihood {
   std::vector<double> sat_;
   double mu0_ = 0, sigma0_ = 0, mu1_ = 0, sigma1_ = 0;
   std::size_t axis_seams_[2] = {0, 0};  ///< seam reference pieces per axis ([1]: vertical lines)
+  bool read_seams_ = true;
   bool usable_ = false;
   bool measured_ = false;
   double absent_cap_ = 0;  ///< [nats]
