@@ -121,6 +121,7 @@ std::vector<DetectedBox> to_detected_boxes(const std::vector<LayoutBox>& boxes,
     d.run_long_m = b.evidence.run_long_m;
     d.run_short_m = b.evidence.run_short_m;
     d.tape_across = b.evidence.tape_across;
+    d.tape_halves = b.evidence.tape_halves;
     ScoreTerms& t = d.score_terms;
     t.support = b.score;
     t.inside = b.evidence.inside;

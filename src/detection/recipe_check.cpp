@@ -34,7 +34,7 @@ bool within(double measured_m, double nominal_m, const RecipeCheckParams& p, dou
   return measured_m >= nominal_m - under_m && measured_m <= nominal_m * (1.0 + max_oversize) + over_m;
 }
 
-std::string describe(const FormatCheck& f, bool taped_across) {
+std::string describe(const FormatCheck& f, bool taped_across, bool taped_halves) {
   auto mm = [](double m) { return m > 0.0 ? std::to_string(static_cast<int>(std::lround(1e3 * m))) : std::string("?"); };
   const bool by_rows = f.measured_long_m <= 0.0 && f.measured_short_m <= 0.0;
   const double l = f.measured_long_m > 0.0 ? f.measured_long_m : f.run_long_m;
@@ -48,6 +48,11 @@ std::string describe(const FormatCheck& f, bool taped_across) {
         " of them carry tape across their middle, none along it (a carton is taped lengthwise: each is part "
         "of a carton laid the other way)";
   }
+  if (taped_halves) {
+    out += ", and " + std::to_string(f.boxes_tape_halves) +
+           " of them carry tape across each half, none along the middle (each is two cartons laid the other "
+           "way)";
+  }
   return out;
 }
 
@@ -56,6 +61,8 @@ std::string describe(const FormatCheck& f, bool taped_across) {
 bool taped_across_unmeasured(const DetectedBox& box) {
   return box.tape_across && (box.measured_short_m <= 0.0 || box.measured_long_m <= 0.0);
 }
+
+bool taped_halves_unmeasured(const DetectedBox& box) { return box.tape_halves; }
 
 RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vector<BoxFormat>& formats,
                          const RecipeCheckParams& params, double pixel_pitch_m, double max_oversize) {
@@ -72,6 +79,7 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
       if (b.run_long_m > 0.0) run_long.push_back(b.run_long_m);
       if (b.run_short_m > 0.0) run_short.push_back(b.run_short_m);
       if (taped_across_unmeasured(b)) ++c.boxes_tape_across;
+      if (taped_halves_unmeasured(b)) ++c.boxes_tape_halves;
     }
     c.format = static_cast<int>(f);
     c.nominal_long_m = formats[f].long_m;
@@ -96,11 +104,14 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
                not_under(c.run_short_m, c.nominal_short_m, params, pixel_pitch_m);
     const bool sizes_agree = c.agrees;
     const bool taped_across = params.taped_across(c.boxes_tape_across);
-    if (taped_across) {
+    const bool taped_halves = params.taped_across(c.boxes_tape_halves);
+    if (taped_across || taped_halves) {
       out.checked = true;
       c.agrees = false;
-      // Half of a carton the recipe holds: the layout chose the wrong format.
-      if (doubled_format(formats, formats[f]) >= 0) out.some_agree = true;
+      // Half of a carton the recipe holds, or two: the layout chose the wrong format.
+      if ((taped_across && doubled_format(formats, formats[f]) >= 0) ||
+          (taped_halves && halved_format(formats, formats[f]) >= 0))
+        out.some_agree = true;
     }
     const bool measured = c.measured_long_m > 0.0 || c.measured_short_m > 0.0;
     if (c.agrees && measured) out.some_agree = true;
@@ -113,7 +124,7 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
     if (!c.agrees) {
       out.tape_only = (out.agrees || out.tape_only) && sizes_agree;
       out.agrees = false;
-      out.reason += (out.reason.empty() ? "" : "; ") + describe(c, taped_across);
+      out.reason += (out.reason.empty() ? "" : "; ") + describe(c, taped_across, taped_halves);
     }
     out.formats.push_back(c);
   }

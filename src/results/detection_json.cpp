@@ -66,6 +66,7 @@ Json recipe_check_json(const RecipeCheck& c) {
                        {"boxes_measured", {f.boxes_long, f.boxes_short}},
                        {"row_bound_mm", {mm(f.run_long_m), mm(f.run_short_m)}},
                        {"boxes_tape_across", f.boxes_tape_across},
+                       {"boxes_tape_halves", f.boxes_tape_halves},
                        {"agrees", f.agrees}});
   }
   return {{"checked", c.checked},

@@ -153,6 +153,39 @@ TEST_CASE("boxes taped across their middle are parts of cartons laid the other w
           .tape_only);
 }
 
+TEST_CASE("boxes taped across each half are two cartons laid the other way", "[recipe_check]") {
+  auto in_halves = [](int format, double long_m, double short_m) {
+    DetectedBox b = measured_box(format, long_m, short_m);
+    b.tape_halves = true;
+    return b;
+  };
+  const std::vector<BoxFormat> twice = {{0.600, 0.400, "600x400", 0.0}};
+  const RecipeCheckParams params;
+  // Two boxes over pairs of 400 x 300 cartons pressed together: their outer sides measure as the
+  // format, the seam between the cartons does not show, and each carton's tape runs across the
+  // box along the middle of its half. The sides seen do not make them cartons here.
+  const RecipeCheck pairs =
+      check_recipe({in_halves(0, 0.606, 0.402), in_halves(0, 0.607, 0.403)}, twice, params, kPitch_m, 0.06);
+  CHECK(pairs.checked);
+  CHECK_FALSE(pairs.agrees);
+  CHECK_FALSE(pairs.some_agree);
+  CHECK(pairs.formats[0].boxes_tape_halves == 2);
+  CHECK(pairs.reason.find("2 of them carry tape across each half") != std::string::npos);
+  // One such box is no verdict; with the key at 0 the tape is not used.
+  CHECK(
+      check_recipe({in_halves(0, 0.606, 0.402), measured_box(0, 0.607, 0.403)}, twice, params, kPitch_m, 0.06)
+          .agrees);
+  RecipeCheckParams off = params;
+  off.min_boxes_tape_across = 0;
+  CHECK(check_recipe({in_halves(0, 0.606, 0.402), in_halves(0, 0.607, 0.403)}, twice, off, kPitch_m, 0.06)
+            .agrees);
+  // With 400 x 300 in the recipe the layout chose the wrong format: flagged, not another recipe.
+  const RecipeCheck wrong_format = check_recipe({in_halves(1, 0.606, 0.402), in_halves(1, 0.607, 0.403)},
+                                                kFormats, params, kPitch_m, 0.06);
+  CHECK_FALSE(wrong_format.agrees);
+  CHECK(wrong_format.some_agree);
+}
+
 TEST_CASE(
     "a layer of taped cartons detected as halves of them answers recipe_mismatch and names the right recipe",
     "[recipe_check]") {
@@ -178,6 +211,39 @@ TEST_CASE(
 
   DetectionWorkspace workspace;
   CHECK(best_fitting_recipe(f.frame, {{2, half}, {1, right}}, params, workspace) == 1);
+}
+
+TEST_CASE(
+    "a layer of taped cartons detected as pairs of them answers recipe_mismatch and names the right recipe",
+    "[recipe_check]") {
+  const std::uint64_t seed = 91085;
+  const sim::SensorProfile profile = *sim::profile_by_name("helios2");
+  sim::ScenarioOptions options = testing::layer_options(sim::PatternFamily::kBlock, "400x300x250");
+  options.tape_probability = 1.0;  // every carton closed with tape along its middle
+  Expected<sim::Scene> scene = sim::make_scene(options, profile, seed);
+  REQUIRE(scene);
+  const sim::SimulatedFrame f = sim::render(*scene, profile, seed);
+  const std::vector<BoxFormat> right = {{0.400, 0.300, "400x300", 0.0}};
+  const std::vector<BoxFormat> twice = {{0.600, 0.400, "600x400", 0.0}};  // two cartons side by side
+  const DetectionParams params = idle_params();
+  for (const DetectedBox& b : agreeing(f, right).boxes) CHECK_FALSE(b.tape_halves);
+
+  const Detection wrong = detect(f.frame, twice, params);
+  INFO(wrong.message);
+  CHECK(wrong.status == DetectionStatus::kRecipeMismatch);
+  CHECK(wrong.boxes.empty());
+  REQUIRE_FALSE(wrong.recipe_check.formats.empty());
+  CHECK(wrong.recipe_check.formats[0].boxes_tape_halves >= 2);
+  CHECK(wrong.message.find("tape across each half") != std::string::npos);
+  // Without the tape the pairs pass: their outer sides measure as the format.
+  DetectionParams no_tape = params;
+  no_tape.recipe_check.min_boxes_tape_across = 0;
+  const Detection passed = detect(f.frame, twice, no_tape);
+  CHECK(passed.status == DetectionStatus::kOk);
+  CHECK_FALSE(passed.ambiguous);
+
+  DetectionWorkspace workspace;
+  CHECK(best_fitting_recipe(f.frame, {{1, twice}, {2, right}}, params, workspace) == 2);
 }
 
 TEST_CASE("a layer detected with a recipe of larger cartons answers recipe_mismatch and names the right recipe",

@@ -163,6 +163,20 @@ TEST_CASE("tape: a band the layout puts no carton's middle on is unexplained") {
   CHECK(plain.unexplained_band_m(across) == 0.0);
 }
 
+TEST_CASE("tape: two cartons under one box show a band across each half, one carton none") {
+  // Two 600 x 400 side by side. Bands across the first along the middles of its halves (two
+  // 400 x 300 cartons laid across it, each taped lengthwise): taped in halves. A band along its
+  // middle (one carton), or across one half only, is not.
+  const KnownLayout l = block(2, 1, 0.6, 0.4);
+  const std::vector<FrameBox> boxes = frame_boxes(l);
+  const Box2d first{Eigen::Vector2d(0.3, 0.2), 0.0, 0.6, 0.4, 0};
+  const FrameBox left{Rect{0.0, 0.0, 0.3, 0.4}, 0, false}, right{Rect{0.3, 0.0, 0.6, 0.4}, 0, false};
+  CHECK(taped_in_halves(first, with_tops(l, {left, right}, 0.7f * kBoard, 0.048, 20.f)));
+  CHECK_FALSE(taped_in_halves(first, with_tops(l, {boxes.front()}, 0.7f * kBoard, 0.048, 20.f)));
+  CHECK_FALSE(taped_in_halves(first, with_tops(l, {left}, 0.7f * kBoard, 0.048, 20.f)));
+  CHECK_FALSE(taped_in_halves(first, with_tops(l, {}, kBoard, 0.0, 20.f)));
+}
+
 TEST_CASE("tape: a label beside a carton's middle is no band of a carton's tape") {
   // Two 600 x 400 side by side; a shipping label (150 x 100 mm, lighter than the board) on the
   // first, off its middle. With no carton's length given, its edges read as a band 120 mm long or

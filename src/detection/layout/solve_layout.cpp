@@ -134,12 +134,14 @@ void mark_block_doubt(const std::vector<BoxFormat>& formats, const SeamEvidence&
   }
 }
 
-/// Marks the boxes with a band of tape across their middle and none along it (tape_across).
-/// Near-square boxes are left out: which way their flaps close says little about their turn.
+/// Marks the boxes with a band of tape across their middle and none along it (tape_across), and
+/// those with a band across each of their halves (tape_halves). Near-square boxes are left out of
+/// the first: which way their flaps close says little about their turn.
 void mark_tape_across(const SeamEvidence& seams, LayoutResult& result) {
   constexpr double kMinAspect = 1.15;  // long over short side of a box whose tape tells its way round
   if (seams.tops.empty()) return;
   for (LayoutBox& b : result.boxes) {
+    b.evidence.tape_halves = layout_detail::taped_in_halves(b, seams);
     if (b.long_m < kMinAspect * b.short_m) continue;
     b.evidence.tape_across = layout_detail::taped(b, seams, true) && !layout_detail::taped(b, seams);
   }
@@ -157,6 +159,10 @@ LayoutResult without_layer(const LayerResult& layer) {
 
 int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half) {
   return format_of_size(formats, 2.0 * half.short_m, half.long_m);
+}
+
+int halved_format(const std::vector<BoxFormat>& formats, const BoxFormat& whole) {
+  return format_of_size(formats, whole.short_m, 0.5 * whole.long_m);
 }
 
 LayerEvidence build_layer_evidence(const Frame& frame, const OrganizedCloud& cloud, const LayerResult& layer,

@@ -242,4 +242,21 @@ bool taped(const Box2d& box, const SeamEvidence& seams, bool across) {
   return tape.taped_length_m({{-hx, -hy, hx, hy}, box.format, !across}) > 0.0;
 }
 
+bool taped_in_halves(const Box2d& box, const SeamEvidence& seams) {
+  constexpr double kMinAspect = 1.15;  // a half's long over short side whose tape tells its way round
+  if (seams.tops.empty() || box.short_m < kMinAspect * 0.5 * box.long_m) return false;
+  LayoutFrame frame;  // along the box: its long side along x, its centre at the origin
+  frame.theta_rad = box.yaw_rad;
+  frame.pivot = box.center;
+  const double pad_m = 0.05, hx = 0.5 * box.long_m, hy = 0.5 * box.short_m;
+  const auto cells = [&](double half_m) {
+    return static_cast<int>(std::ceil(2.0 * (half_m + pad_m) / seams.cell_m));
+  };
+  const TapeEvidence tape(seams, frame, -hx - pad_m, -hy - pad_m, cells(hx), cells(hy));
+  // Each half is a carton whose long side runs along y: its tape along its own middle line.
+  return tape.taped_length_m({{-hx, -hy, 0.0, hy}, box.format, false}) > 0.0 &&
+         tape.taped_length_m({{0.0, -hy, hx, hy}, box.format, false}) > 0.0 &&
+         tape.taped_length_m({{-hx, -hy, hx, hy}, box.format, true}) <= 0.0;
+}
+
 }  // namespace palletd::layout_detail

@@ -86,4 +86,10 @@ class TapeEvidence {
 /// `across`, along its middle line across it (parallel to its short side).
 bool taped(const Box2d& box, const SeamEvidence& seams, bool across = false);
 
+/// Whether a band runs across `box` along the middle of each of its halves (the box cut across its
+/// long side), and none along the box's own middle: two cartons side by side, each taped
+/// lengthwise, under one box. Only where a half's long side runs across the box (the box's short
+/// side 1.15 times half its long side or more), else a half's tape runs along the box.
+bool taped_in_halves(const Box2d& box, const SeamEvidence& seams);
+
 }  // namespace palletd::layout_detail

@@ -116,6 +116,8 @@ struct DetectedBox {
   double run_long_m = -1.0, run_short_m = -1.0;
   /// A band of tape runs across its middle and none along it (BoxEvidence::tape_across).
   bool tape_across = false;
+  /// A band runs across each of its halves and none along it (BoxEvidence::tape_halves).
+  bool tape_halves = false;
   Box2d in_layer;        ///< the same box in the layer frame
   std::optional<Eigen::Vector3d> base_position;  ///< [m] when T_base_camera is known
   std::optional<double> base_yaw_deg;            ///< [deg] (-180, 180]

@@ -293,6 +293,10 @@ struct BoxEvidence {
   /// the other way: two boxes where one carton stands, or boxes of a format the layer is not
   /// built of (recipe_check.hpp). Not looked for on near-square boxes.
   bool tape_across = false;
+  /// The tops' intensity shows a band across the box along the middle of each of its halves, and
+  /// none along its long side: two cartons laid the other way under one box, each taped
+  /// lengthwise (a format twice the layer's carton; recipe_check.hpp).
+  bool tape_halves = false;
 };
 
 /// One box of a layout: where it lies (layer frame) and how well the measurements support it.
@@ -424,6 +428,9 @@ LayoutResult solve_layout(const Frame& frame, const OrganizedCloud& cloud, const
 /// The recipe format that two boxes of format `half` make side by side (along their short sides,
 /// within 12 mm), or -1.
 int doubled_format(const std::vector<BoxFormat>& formats, const BoxFormat& half);
+/// The recipe format two boxes of which make `whole` side by side (the reverse of
+/// doubled_format()), or -1.
+int halved_format(const std::vector<BoxFormat>& formats, const BoxFormat& whole);
 
 /// Area of the intersection of a polygon with holes and an axis-aligned rectangle [m^2] (exact).
 double clipped_area(const PolygonWithHoles& polygon, double x0, double y0, double x1, double y1);
