@@ -62,8 +62,6 @@ bool taped_across_unmeasured(const DetectedBox& box) {
   return box.tape_across && (box.measured_short_m <= 0.0 || box.measured_long_m <= 0.0);
 }
 
-bool taped_halves_unmeasured(const DetectedBox& box) { return box.tape_halves; }
-
 RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vector<BoxFormat>& formats,
                          const RecipeCheckParams& params, double pixel_pitch_m, double max_oversize) {
   RecipeCheck out;
@@ -79,7 +77,7 @@ RecipeCheck check_recipe(const std::vector<DetectedBox>& boxes, const std::vecto
       if (b.run_long_m > 0.0) run_long.push_back(b.run_long_m);
       if (b.run_short_m > 0.0) run_short.push_back(b.run_short_m);
       if (taped_across_unmeasured(b)) ++c.boxes_tape_across;
-      if (taped_halves_unmeasured(b)) ++c.boxes_tape_halves;
+      if (b.tape_halves) ++c.boxes_tape_halves;
     }
     c.format = static_cast<int>(f);
     c.nominal_long_m = formats[f].long_m;

@@ -228,9 +228,11 @@ double TapeEvidence::unexplained_band_m(const std::vector<FrameBox>& boxes, doub
   return longest;
 }
 
-bool taped(const Box2d& box, const SeamEvidence& seams, bool across) {
-  if (seams.tops.empty()) return false;
-  // A frame along the box: its long side along x, its centre at the origin.
+namespace {
+
+/// The tops' intensity read in a frame along the box: its long side along x, its centre at the
+/// origin (the box is {-hx, -hy, hx, hy} there).
+TapeEvidence tape_along(const Box2d& box, const SeamEvidence& seams) {
   LayoutFrame frame;
   frame.theta_rad = box.yaw_rad;
   frame.pivot = box.center;
@@ -238,21 +240,22 @@ bool taped(const Box2d& box, const SeamEvidence& seams, bool across) {
   const auto cells = [&](double half_m) {
     return static_cast<int>(std::ceil(2.0 * (half_m + pad_m) / seams.cell_m));
   };
-  const TapeEvidence tape(seams, frame, -hx - pad_m, -hy - pad_m, cells(hx), cells(hy));
-  return tape.taped_length_m({{-hx, -hy, hx, hy}, box.format, !across}) > 0.0;
+  return TapeEvidence(seams, frame, -hx - pad_m, -hy - pad_m, cells(hx), cells(hy));
+}
+
+}  // namespace
+
+bool taped(const Box2d& box, const SeamEvidence& seams, bool across) {
+  if (seams.tops.empty()) return false;
+  const double hx = 0.5 * box.long_m, hy = 0.5 * box.short_m;
+  return tape_along(box, seams).taped_length_m({{-hx, -hy, hx, hy}, box.format, !across}) > 0.0;
 }
 
 bool taped_in_halves(const Box2d& box, const SeamEvidence& seams) {
   constexpr double kMinAspect = 1.15;  // a half's long over short side whose tape tells its way round
   if (seams.tops.empty() || box.short_m < kMinAspect * 0.5 * box.long_m) return false;
-  LayoutFrame frame;  // along the box: its long side along x, its centre at the origin
-  frame.theta_rad = box.yaw_rad;
-  frame.pivot = box.center;
-  const double pad_m = 0.05, hx = 0.5 * box.long_m, hy = 0.5 * box.short_m;
-  const auto cells = [&](double half_m) {
-    return static_cast<int>(std::ceil(2.0 * (half_m + pad_m) / seams.cell_m));
-  };
-  const TapeEvidence tape(seams, frame, -hx - pad_m, -hy - pad_m, cells(hx), cells(hy));
+  const TapeEvidence tape = tape_along(box, seams);
+  const double hx = 0.5 * box.long_m, hy = 0.5 * box.short_m;
   // Each half is a carton whose long side runs along y: its tape along its own middle line.
   return tape.taped_length_m({{-hx, -hy, 0.0, hy}, box.format, false}) > 0.0 &&
          tape.taped_length_m({{0.0, -hy, hx, hy}, box.format, false}) > 0.0 &&

@@ -37,7 +37,7 @@ struct RecipeCheckParams {
   int min_boxes_tape_across = 2;
 
   /// Whether `boxes` of a format taped across (taped_across_unmeasured()) or in halves
-  /// (taped_halves_unmeasured()) say the cartons lie the other way.
+  /// (DetectedBox::tape_halves) say the cartons lie the other way.
   [[nodiscard]] bool taped_across(int boxes) const {
     return min_boxes_tape_across > 0 && boxes >= min_boxes_tape_across;
   }
@@ -53,7 +53,8 @@ struct FormatCheck {
   int boxes_long = 0, boxes_short = 0;  ///< boxes measured along each axis
   /// Boxes with tape across their middle (tape_across), leaving out those measured on both axes.
   int boxes_tape_across = 0;
-  /// Boxes with tape across each half (tape_halves), leaving out those measured on both axes.
+  /// Boxes with tape across each half (tape_halves), whatever was seen of their sides: the sides
+  /// seen around two cartons under one box are the pair's outer sides.
   int boxes_tape_halves = 0;
   /// Where fewer boxes showed both sides: the median of the boxes' shares of rows pressed
   /// together (DetectedBox::run_long_m), an upper bound checked against the lower tolerance only
@@ -92,8 +93,6 @@ struct RecipeCheck {
 /// (DetectedBox::tape_across) and not all four of its sides seen (a box measured on both axes is
 /// a carton; a band across it is then a label or a print).
 bool taped_across_unmeasured(const DetectedBox& box);
-/// The same for two cartons under one box: tape across each half (DetectedBox::tape_halves).
-bool taped_halves_unmeasured(const DetectedBox& box);
 
 /// Measured sides of the boxes against their formats. `pixel_pitch_m`: the layer's pixel pitch;
 /// `max_oversize`: the share cartons may run over their format (RefineParams::max_oversize).
