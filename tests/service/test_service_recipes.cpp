@@ -1,7 +1,9 @@
 // Recipes over Modbus end to end: an unknown recipe number, a layer of other cartons than the
 // recipe's (the recipe that fits named in 532), size-range recipes (measured sizes in 910 + 2 i).
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <string>
 #include <thread>
 
 #include <catch2/catch.hpp>
@@ -17,6 +19,22 @@ using namespace std::chrono_literals;
 using palletd::modbus::ErrorCode;
 using palletd::modbus::ResultStatus;
 using namespace palletd::service_test;
+
+namespace {
+
+/// The configured recipe of that number (register 532's value), null when none is.
+const palletd::Recipe* recipe_numbered(const palletd::Config& config, int number) {
+  for (const auto& r : config.recipes)
+    if (r.number == number) return &r;
+  return nullptr;
+}
+
+bool lists_format(const palletd::Config& config, const palletd::Recipe& recipe, const std::string& name) {
+  return std::any_of(recipe.formats.begin(), recipe.formats.end(),
+                     [&](int f) { return config.formats[static_cast<std::size_t>(f)].name == name; });
+}
+
+}  // namespace
 
 TEST_CASE("an unknown recipe fails the trigger with error code 5 and its number as detail") {
   TempFrames frames(bundled_stems(1));
@@ -61,14 +79,9 @@ TEST_CASE("a layer of other cartons fails with detail 8 and names the configured
   CHECK(result->status.error_detail ==
         static_cast<std::uint16_t>(palletd::modbus::DetectionFailure::kRecipeMismatch));
   // The recipe named lists the frame's 400 x 300 cartons.
-  const palletd::Recipe* named = nullptr;
-  for (const auto& r : config.recipes)
-    if (r.number == rec.best_recipe) named = &r;
+  const palletd::Recipe* named = recipe_numbered(config, rec.best_recipe);
   REQUIRE(named != nullptr);
-  bool has_400x300 = false;
-  for (int f : named->formats)
-    has_400x300 = has_400x300 || config.formats[static_cast<std::size_t>(f)].name == "400x300";
-  CHECK(has_400x300);
+  CHECK(lists_format(config, *named, "400x300"));
   // The right recipe on the same frame answers with boxes and no name.
   auto right = plc.trigger(static_cast<std::uint16_t>(named->number), 9, 120s);
   REQUIRE(right.ok());
@@ -100,14 +113,9 @@ TEST_CASE(
   CHECK(rec.boxes.empty());
   CHECK(result->status.error_detail ==
         static_cast<std::uint16_t>(palletd::modbus::DetectionFailure::kRecipeMismatch));
-  const palletd::Recipe* named = nullptr;
-  for (const auto& r : config.recipes)
-    if (r.number == rec.best_recipe) named = &r;
+  const palletd::Recipe* named = recipe_numbered(config, rec.best_recipe);
   REQUIRE(named != nullptr);
-  bool has_400x300 = false;
-  for (int f : named->formats)
-    has_400x300 = has_400x300 || config.formats[static_cast<std::size_t>(f)].name == "400x300";
-  CHECK(has_400x300);
+  CHECK(lists_format(config, *named, "400x300"));
   service.stop();
 }
 
