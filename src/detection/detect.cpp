@@ -281,10 +281,12 @@ Detection lay_out_layer(const Frame& frame, const std::vector<BoxFormat>& format
     out.ambiguity_reason = std::move(reason);
     out.ambiguity_kinds.insert(out.ambiguity_kinds.end(), kinds.begin(), kinds.end());
   }
-  const bool above_known_deck = params.pallet.top_z_m.has_value() && layer_z_m.has_value();
+  const std::optional<double> above_deck_m = params.pallet.top_z_m && layer_z_m
+                                                 ? std::optional<double>(*layer_z_m - *params.pallet.top_z_m)
+                                                 : std::nullopt;
   if (std::optional<LevelVerdict> level =
           level_after_layout(cloud, layout, out.layer, formats, params.plane, params.layout.refine,
-                             frame.T_base_camera, above_known_deck)) {
+                             frame.T_base_camera, above_deck_m)) {
     if (level->status != DetectionStatus::kOk) return without_boxes(*level);
     out.ambiguous = true;
     out.ambiguity_reason += (out.ambiguity_reason.empty() ? "" : "; ") + level->message;

@@ -392,7 +392,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
                                                const std::vector<BoxFormat>& formats,
                                                const PlaneParams& validity, const RefineParams& refine,
                                                const std::optional<Eigen::Isometry3d>& T_base_camera,
-                                               bool above_known_deck) {
+                                               std::optional<double> above_deck_m) {
   // A confident layout stands; a failed or flagged one, or one with boxes over slots or holes or
   // pieces of the layer without boxes or cut off by the image's edge, on a level as low as a
   // pallet's deck is the empty pallet (stereo cameras and coarse pitches merge its boards and gaps
@@ -406,7 +406,7 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   std::optional<LevelVerdict> holes = ok ? boxes_over_holes(cloud, layout, layer) : std::nullopt;
   std::optional<LevelVerdict> cut = ok ? pieces_cut_by_image(layer, formats) : std::nullopt;
   const bool carton_seams = ok && layout.interior_seams.seen_share() >= kCartonSeamShare;
-  if (!above_known_deck && !carton_seams && !layout.clock_ran_out &&
+  if (!above_deck_m && !carton_seams && !layout.clock_ran_out &&
       (!ok || layout.ambiguous || slots || unlaid || holes || cut))
     if (std::optional<LevelVerdict> deck = deck_above_floor(cloud, layer, validity, T_base_camera))
       return deck;
@@ -414,7 +414,12 @@ std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, cons
   if (unlaid) return unlaid;
   if (holes) return holes;
   if (!ok) return std::nullopt;
-  if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) return sheet;
+  if (std::optional<LevelVerdict> sheet = slip_sheet(layout, layer, formats)) {
+    if (sheet->status != DetectionStatus::kSlipSheet) return sheet;
+    const auto beside =
+        lower_level_beside(cloud, layer, formats, validity, layout.pixel_pitch_m, above_deck_m);
+    return beside ? rest_of_a_layer(*beside, layout) : *sheet;
+  }
   if (cut) return cut;
   if (std::optional<LevelVerdict> undecided = formats_undecided(layout)) return undecided;
   if (std::optional<LevelVerdict> mix = mix_by_outline(layout)) return mix;

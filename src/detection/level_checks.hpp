@@ -46,6 +46,27 @@ std::optional<LevelVerdict> deck_above_floor(const OrganizedCloud& cloud, const 
 std::optional<LevelVerdict> slip_sheet(const LayoutResult& layout, const LayerResult& layer,
                                        const std::vector<BoxFormat>& formats);
 
+/// The next level of the load seen beside the top level: a flat level 0.08-0.8 m below the
+/// layer's plane (above the floor, the deepest level holding a tenth of the points around), from
+/// 60 mm out to the recipe's longest short side (0.25 m at least) outside its outline, covering at
+/// least the recipe's smallest top. A layer partly picked shows it; a slip sheet lies over a whole
+/// layer and hides it. `pixel_pitch_m`: the raster's cell is no finer (1 cm at least).
+/// `above_deck_m`: the layer's height above the pallet's top; a level less than 50 mm above the
+/// deck is left out (a roller conveyor at pallet height beside the pallet).
+struct LevelBeside {
+  double drop_m = 0.0;   ///< how far below the top level [m]
+  double area_m2 = 0.0;  ///< how much of it shows within reach [m^2]
+};
+std::optional<LevelBeside> lower_level_beside(const OrganizedCloud& cloud, const LayerResult& layer,
+                                              const std::vector<BoxFormat>& formats,
+                                              const PlaneParams& validity, double pixel_pitch_m,
+                                              std::optional<double> above_deck_m = std::nullopt);
+
+/// A seamless rectangle that slip_sheet() names a sheet, with the load's next level beside it: a
+/// sheet lies over a whole layer, so it is more likely what is left of a layer of cartons pressed
+/// together; flagged (kOk with the sentence), a sheet not ruled out.
+LevelVerdict rest_of_a_layer(const LevelBeside& beside, const LayoutResult& layout);
+
 /// A box that two boxes of another recipe format could replace, or a pair or a block of four one
 /// box could (LayoutBox evidence split_seam, join_seam), with no seam seen across it, on a camera
 /// that does not show narrow seams (a coarse pitch, or no mixed pixels at edges): the outline is
@@ -127,17 +148,18 @@ std::optional<LevelVerdict> boxes_over_slots(const LayoutResult& layout, const L
 /// or a hole, or a piece of the layer holds no box or the image's edge cuts one off, and the
 /// search was not ended by the clock (LayoutResult::clock_ran_out: then nothing showed that no box
 /// fits, and a faster machine might have); then those
-/// flags; else slip_sheet, pieces_cut_by_image, formats_undecided, mix_by_outline,
-/// seams_across_boxes, undersized_boxes, uncertain_positions, uncertain_turn, turned_unseen_boxes,
-/// overlapping_boxes (`refine`), search_unfinished. `above_known_deck`: the pallet's height and
-/// the calibration put the level above the pallet's deck (empty_level() found it no deck), so no
-/// floor seen below it makes it one: the level seen lowest may be a lower layer of cartons.
+/// flags; else slip_sheet (rest_of_a_layer where lower_level_beside finds one), pieces_cut_by_image,
+/// formats_undecided, mix_by_outline, seams_across_boxes, undersized_boxes, uncertain_positions,
+/// uncertain_turn, turned_unseen_boxes, overlapping_boxes (`refine`), search_unfinished. `above_deck_m`: the
+/// layer's height above the pallet's top when the pallet's height and the calibration give it (empty_level()
+/// found it no deck), so no floor seen below it makes it one: the level seen lowest may be a lower layer of
+/// cartons; and a level beside it counts as the load's next level only above the deck.
 std::optional<LevelVerdict> level_after_layout(const OrganizedCloud& cloud, const LayoutResult& layout,
                                                const LayerResult& layer,
                                                const std::vector<BoxFormat>& formats,
                                                const PlaneParams& validity, const RefineParams& refine,
                                                const std::optional<Eigen::Isometry3d>& T_base_camera,
-                                               bool above_known_deck);
+                                               std::optional<double> above_deck_m);
 
 /// Fills height_above_pallet_m and layers_remaining; flags the result (ambiguous, with a reason)
 /// when the height is not a whole number of box heights.

@@ -165,7 +165,12 @@ FrameEval evaluate_frame(const Detection& detection, const Truth& truth, const s
                                          e.matched == e.detected_boxes && within && e.formats_right
                                    : e.status == e.expect;
   }
-  e.unflagged_wrong = !e.exact && detection.status == DetectionStatus::kOk && !detection.ambiguous;
+  // The PLC acts on boxes, on an empty pallet and on a sheet to take off; recipe_mismatch and
+  // no_layout stop the cell.
+  const bool acted_on = detection.status == DetectionStatus::kOk ||
+                        detection.status == DetectionStatus::kEmpty ||
+                        detection.status == DetectionStatus::kSlipSheet;
+  e.unflagged_wrong = !e.exact && acted_on && !detection.ambiguous;
   return e;
 }
 

@@ -13,12 +13,12 @@ Detection measured_layer(const std::vector<std::pair<double, double>>& sizes_m) 
   Detection d;
   d.status = DetectionStatus::kOk;
   d.formats_measured = true;
+  d.boxes.reserve(sizes_m.size());  // built in place: gcc 12 reads a copied optional as uninitialised
   for (const auto& [l, s] : sizes_m) {
-    DetectedBox b;
+    DetectedBox& b = d.boxes.emplace_back();
     b.format = -1;
     b.long_m = l;
     b.short_m = s;
-    d.boxes.push_back(b);
   }
   return d;
 }

@@ -407,3 +407,25 @@ TEST_CASE("one carton with no seam in view: its tape tells it from two cartons o
   REQUIRE(d.boxes.size() == 1);
   CHECK(d.boxes.front().format == 0);
 }
+
+// Frame 131 of `palletctl simulate --out P2 -n 150 --pattern all --profile all --scene all --cell
+// --pallet-stops --partial-view --oversize-max 0.05 --corner-radius 2:10 --gap-max 25
+// --noise-scale 2.5 --bevel 1 --height-min 2.0 --height-max 3.5 --lower-max 4 --tilt-max 30 --fill
+// 0.3:1 --removal all --extra-format 500x350 --seed 91097`: what is left of a mixed layer after a
+// row was picked, one 600 x 400 and two 400 x 300 pressed together in a row, sharp-edged, on a
+// noisy blaze101. No seam shows between them, so the rectangle was named a slip sheet; the level
+// under the picked row shows beside it, 255 mm lower, which a sheet would cover.
+TEST_CASE("a seamless rectangle with the load's next level beside it is no slip sheet") {
+  const Expected<Frame> frame =
+      read_frame(std::string(PALLETD_TEST_DATA_DIR) + "/flags/mixed_rest_of_a_layer_pressed_blaze101");
+  REQUIRE(frame);
+  DetectionParams params = in_simulated_cell(1.444);
+  params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+  const std::vector<BoxFormat> formats = {
+      {0.6, 0.4, "600x400"}, {0.4, 0.3, "400x300"}, {0.5, 0.35, "500x350"}};
+  const Detection d = detect(*frame, formats, params);
+  CAPTURE(to_string(d.status), d.message, d.ambiguity_reason);
+  REQUIRE(d.status == DetectionStatus::kOk);
+  CHECK(d.ambiguous);
+  CHECK_THAT(d.ambiguity_reason, Catch::Contains("the load's next level shows beside the layer"));
+}

@@ -50,7 +50,8 @@ struct FrameEval {
   /// Boxes: no miss, no extra, all within tolerance, right formats. Empty or slip_sheet: the
   /// status says so.
   bool exact = false;
-  /// Not exact, yet an ok status not flagged ambiguous: a wrong answer the PLC would act on.
+  /// Not exact, yet an answer the PLC acts on (ok, empty or slip_sheet) not flagged ambiguous:
+  /// boxes where a sheet lies, an empty pallet or a sheet where cartons stand.
   bool unflagged_wrong = false;
   double runtime_ms = 0.0;
   std::map<std::string, double> timing_ms;  ///< Detection::timing_ms (per stage)
