@@ -231,7 +231,8 @@ void register_simulate(CLI::App& app) {
                   "layer pattern(s): block, interlock, brick, pinwheel, chimney, mixed, all")
       ->capture_default_str();
   cmd->add_option("--profile", args->profiles,
-                  "sensor profile(s): o3d303, o3d303-small, blaze101, helios2, xtion, d435, all")
+                  "sensor profile(s): o3d303, o3d303-small, blaze101, helios2, xtion, d435, all (these six), "
+                  "d435-hd (1280x720)")
       ->capture_default_str();
   cmd->add_option("--pallet", args->pallet, "eur (1200x800), ind (1200x1000) or none")->capture_default_str();
   cmd->add_option("--format", args->formats, "box format LONGxSHORT[xHEIGHT] in mm (mixed takes two); default per pattern");

@@ -88,11 +88,14 @@ Expected<SensorProfile> profile_by_name(const std::string& name) {
     p.intensity_noise_rel = 0.05;
     return p;
   }
-  if (name == "d435") {
-    // Active stereo (RealSense D435-like): 640x480, 87x58 deg, 50 mm baseline, millimetres, 8-bit IR.
-    p.camera_id = "sim-d435";
+  if (name == "d435" || name == "d435-hd") {
+    // Active stereo (RealSense D435-like): 640x480 (or its 1280x720 mode), 87x58 deg, 50 mm
+    // baseline, millimetres, 8-bit IR. The matching's sub-pixel noise and window stay in pixels,
+    // so the HD mode's depth noise is half and its fattened edges half as wide in metres.
+    const bool hd = name == "d435-hd";
+    p.camera_id = hd ? "sim-d435-hd" : "sim-d435";
     p.kind = SensorKind::kActiveStereo;
-    p.intrinsics = from_fov(640, 480, 87.0, 58.0);
+    p.intrinsics = hd ? from_fov(1280, 720, 87.0, 58.0) : from_fov(640, 480, 87.0, 58.0);
     p.depth_scale_m = 0.001;
     p.intensity_bits = 8;
     p.supersampling = 3;
@@ -109,7 +112,8 @@ Expected<SensorProfile> profile_by_name(const std::string& name) {
     p.intensity_noise_rel = 0.05;
     return p;
   }
-  return Error{"unknown sensor profile '" + name + "' (known: o3d303, o3d303-small, blaze101, helios2, xtion, d435)"};
+  return Error{"unknown sensor profile '" + name +
+               "' (known: o3d303, o3d303-small, blaze101, helios2, xtion, d435, d435-hd)"};
 }
 
 double tof_sigma_m(const SensorProfile& profile, double range_m, double reflectance, double cos_incidence) {

@@ -120,3 +120,24 @@ TEST_CASE("a carton the image's edge cuts to less than half a box flags the layo
     CHECK_THAT(gap.ambiguity_reason, !Catch::Contains("image's edge"));
   }
 }
+
+TEST_CASE("the D435's 1280x720 mode: an interlock layer placed exactly, as at 640x480", "[cell][view]") {
+  // Four times the pixels: every stage's pixel-based step (mixed pixels, the seam raster's cell,
+  // the matching window's fattened edges) must scale with the pixel pitch.
+  for (const char* profile : {"d435", "d435-hd"}) {
+    const sim::SimulatedFrame f =
+        testing::render_layer(sim::PatternFamily::kInterlock, "400x300x250", profile, 17, 0.004);
+    DetectionParams params;
+    params.layout.search.time_budget_ms = 1e6;  // the expansion budget alone ends the search (sanitizers)
+    const Detection d = detect(f.frame, {{0.4, 0.3, "400x300"}}, params);
+    CAPTURE(profile, d.message, d.ambiguity_reason);
+    REQUIRE(d.status == DetectionStatus::kOk);
+    CHECK_FALSE(d.ambiguous);
+    REQUIRE(d.boxes.size() == f.truth.boxes.size());
+    for (const TruthBox& t : f.truth.boxes) {
+      double nearest_m = 1e9;
+      for (const DetectedBox& b : d.boxes) nearest_m = std::min(nearest_m, (b.center - t.center).norm());
+      CHECK(nearest_m < 0.01);
+    }
+  }
+}

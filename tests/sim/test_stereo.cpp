@@ -41,6 +41,19 @@ TEST_CASE("d435 is a listed active-stereo profile") {
   CHECK(stereo_sigma_m(p, 2.0) < 0.0025 * 2.0);
 }
 
+TEST_CASE("d435-hd is the D435's 1280x720 mode: half its depth noise, not among the profiles `all` draws") {
+  const SensorProfile sd = *profile_by_name("d435");
+  const SensorProfile hd = *profile_by_name("d435-hd");
+  CHECK(hd.kind == SensorKind::kActiveStereo);
+  CHECK(hd.intrinsics.width == 1280);
+  CHECK(hd.intrinsics.height == 720);
+  CHECK(hd.camera_id != sd.camera_id);
+  // The matching's sub-pixel noise is in pixels: twice the focal length, half the depth noise.
+  CHECK(stereo_sigma_m(hd, 2.0) == Approx(0.5 * stereo_sigma_m(sd, 2.0)).epsilon(0.01));
+  const auto names = profile_names();
+  CHECK(std::find(names.begin(), names.end(), "d435-hd") == names.end());
+}
+
 TEST_CASE("active stereo renders no mixed pixels at box edges") {
   const Scene scene = box_scene(0.25, 0.3);
   const SensorProfile p = *profile_by_name("d435");
